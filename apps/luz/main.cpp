@@ -1,0 +1,104 @@
+// luz: the command-line renderer.
+//   luz render SCENE [-o out.exr|.pfm|.png] [--spp N] [--threads N] [--seed S]
+//       [--max-depth D] [--sampler independent|stratified|sobol]
+//       [--integrator path|bsdf|light] [-D name=value]...
+#include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include "luz/device/cpu/render.h"
+#include "luz/io/error.h"
+#include "luz/io/image.h"
+#include "luz/io/scene_loader.h"
+
+namespace {
+
+constexpr int kExitBadInput = 2;
+
+int render(const std::string& scene_path, std::vector<std::string> outs, int spp, int threads, long long seed, int max_depth,
+           const std::string& sampler, const std::string& integrator, const std::vector<std::string>& defs) {
+  luz::Defines defines;
+  for (const std::string& d : defs) {
+    size_t eq = d.find('=');
+    if (eq == std::string::npos || eq == 0) throw luz::InputError("-D " + d + ": expected name=value");
+    defines[d.substr(0, eq)] = d.substr(eq + 1);
+  }
+  if (outs.empty()) outs.push_back(std::filesystem::path(scene_path).stem().string() + ".exr");
+  for (const std::string& out : outs)
+    if (!luz::is_supported_image_extension(out))
+      throw luz::InputError(out + ": unknown image format (use .exr, .pfm or .png)");
+
+  luz::Scene scene = luz::load_scene(scene_path, defines);
+  luz::RenderSettings& s = scene.settings;
+  if (spp > 0) s.spp = uint32_t(spp);
+  if (seed >= 0) s.seed = uint64_t(seed);
+  if (max_depth != 0) s.integrator.max_depth = max_depth;
+  if (sampler == "independent") s.sampler = luz::SamplerType::Independent;
+  else if (sampler == "stratified") s.sampler = luz::SamplerType::Stratified;
+  else if (sampler == "sobol") s.sampler = luz::SamplerType::Sobol;
+  if (integrator == "path") s.integrator.type = luz::IntegratorType::Path;
+  else if (integrator == "bsdf") s.integrator.type = luz::IntegratorType::Bsdf;
+  else if (integrator == "light") s.integrator.type = luz::IntegratorType::Light;
+
+  luz::CpuRenderOptions opt;
+  opt.threads = threads;
+  opt.progress = ::isatty(2);
+  luz::RenderStats stats;
+  std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu emitters\n", scene_path.c_str(),
+               scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(), scene.spheres.size(),
+               scene.emitters.size());
+  luz::Film film = luz::render_cpu(scene, opt, stats);
+  luz::Image img{film.width, film.height, film.mean()};
+  std::string written;
+  for (const std::string& out : outs) {
+    luz::write_image(out, img);
+    written += (written.empty() ? "" : ", ") + out;
+  }
+  std::printf("luz: %.3f s, %.3f Msamples/s, %.2f Mrays/s, %llu non-finite samples discarded, wrote %s\n",
+              stats.seconds, stats.samples / stats.seconds * 1e-6, stats.rays / stats.seconds * 1e-6,
+              (unsigned long long)stats.discarded, written.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Luz: a physically based path tracer"};
+  app.require_subcommand(1);
+  CLI::App* rc = app.add_subcommand("render", "render a scene (Mitsuba 3 XML or OBJ) to an image");
+  std::string scene, sampler, integrator;
+  std::vector<std::string> outs;
+  int spp = 0, threads = 0, max_depth = 0;
+  long long seed = -1;
+  std::vector<std::string> defines;
+  rc->add_option("scene", scene, "scene file (.xml or .obj)")->required();
+  rc->add_option("-o,--output", outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
+      ->allow_extra_args(false);
+  rc->add_option("--spp", spp, "samples per pixel (overrides the scene)")->check(CLI::PositiveNumber);
+  rc->add_option("--threads", threads, "worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
+  rc->add_option("--seed", seed, "random seed")->check(CLI::NonNegativeNumber);
+  rc->add_option("--max-depth", max_depth, "longest path, Mitsuba's max_depth (-1: unbounded)")
+      ->check(CLI::Range(-1, 1 << 20) & !CLI::IsMember({0}));
+  rc->add_option("--sampler", sampler, "sample generator")->check(CLI::IsMember({"independent", "stratified", "sobol"}));
+  rc->add_option("--integrator", integrator, "estimator")->check(CLI::IsMember({"path", "bsdf", "light"}));
+  rc->add_option("-D", defines, "override a scene <default>: name=value")->allow_extra_args(false);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    int code = app.exit(e);
+    return code == 0 ? 0 : kExitBadInput;
+  }
+  try {
+    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, defines);
+  } catch (const luz::InputError& e) {
+    std::fprintf(stderr, "luz: error: %s\n", e.what());
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "luz: error: %s\n", e.what());
+    return 1;
+  }
+}

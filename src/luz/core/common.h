@@ -1,0 +1,34 @@
+// Luz: definitions shared by host and device code.
+#pragma once
+
+#include <cstdint>
+
+#if defined(__CUDACC__)
+#define LUZ_HOST_DEVICE __host__ __device__
+#define LUZ_DEVICE_CODE 1
+#else
+#define LUZ_HOST_DEVICE
+#endif
+
+#define LUZ_INLINE LUZ_HOST_DEVICE inline
+
+namespace luz {
+
+inline constexpr float kPi = 3.14159265358979323846f;
+inline constexpr float kInvPi = 0.31830988618379067154f;
+inline constexpr float kInv2Pi = 0.15915494309189533577f;
+inline constexpr float kInv4Pi = 0.07957747154594766788f;
+inline constexpr float kInfinity = __builtin_huge_valf();
+// Largest float strictly below one: what a [0,1) sample never exceeds.
+inline constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
+
+LUZ_INLINE float min(float a, float b) { return a < b ? a : b; }
+LUZ_INLINE float max(float a, float b) { return a > b ? a : b; }
+LUZ_INLINE float clamp(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? hi : v); }
+LUZ_INLINE int min(int a, int b) { return a < b ? a : b; }
+LUZ_INLINE int max(int a, int b) { return a > b ? a : b; }
+LUZ_INLINE float sqr(float v) { return v * v; }
+LUZ_INLINE float safe_sqrt(float v) { return __builtin_sqrtf(v > 0.f ? v : 0.f); }
+LUZ_INLINE bool is_finite(float v) { return v - v == 0.f; }
+
+}  // namespace luz

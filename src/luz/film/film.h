@@ -1,0 +1,57 @@
+// The film on the host: per-pixel sums in double (value and square, so each
+// pixel's sample variance is known), and the count of samples that were
+// discarded for being non-finite.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "luz/math/vec.h"
+
+namespace luz {
+
+struct Film {
+  int width = 0, height = 0;
+  std::vector<double> sum, sum_sq;  // 3 per pixel
+  std::vector<uint32_t> count;      // samples per pixel (finite ones)
+
+  Film() = default;
+  Film(int w, int h) : width(w), height(h), sum(size_t(w) * h * 3), sum_sq(size_t(w) * h * 3), count(size_t(w) * h) {}
+
+  void add(int x, int y, Color c) {
+    size_t i = size_t(y) * width + x;
+    for (int k = 0; k < 3; ++k) {
+      sum[3 * i + k] += c[k];
+      sum_sq[3 * i + k] += double(c[k]) * c[k];
+    }
+    ++count[i];
+  }
+
+  // Mean per pixel, RGB interleaved, rows top to bottom.
+  std::vector<float> mean() const {
+    std::vector<float> out(sum.size());
+    for (size_t i = 0; i < count.size(); ++i)
+      for (int k = 0; k < 3; ++k) out[3 * i + k] = count[i] ? float(sum[3 * i + k] / count[i]) : 0.f;
+    return out;
+  }
+
+  // Variance of the pixel mean (sample variance / n), RGB interleaved.
+  std::vector<double> variance_of_mean() const {
+    std::vector<double> out(sum.size());
+    for (size_t i = 0; i < count.size(); ++i) {
+      double n = count[i];
+      for (int k = 0; k < 3; ++k) {
+        if (n < 2) {
+          out[3 * i + k] = 0;
+          continue;
+        }
+        double m = sum[3 * i + k] / n;
+        double var = (sum_sq[3 * i + k] - n * m * m) / (n - 1);
+        out[3 * i + k] = (var > 0 ? var : 0) / n;
+      }
+    }
+    return out;
+  }
+};
+
+}  // namespace luz

@@ -1,0 +1,149 @@
+#include "luz/io/image.h"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#define STB_IMAGE_WRITE_IMPLEMENTATION
+#define STB_IMAGE_WRITE_STATIC
+#include <stb/stb_image_write.h>
+
+#include "luz/io/error.h"
+
+namespace luz {
+
+namespace {
+
+std::string extension(const std::string& path) {
+  std::string e = std::filesystem::path(path).extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return e;
+}
+
+void write_exr_file(const std::string& path, const Image& img) {
+  Imf::Header header(img.width, img.height);
+  header.channels().insert("R", Imf::Channel(Imf::FLOAT));
+  header.channels().insert("G", Imf::Channel(Imf::FLOAT));
+  header.channels().insert("B", Imf::Channel(Imf::FLOAT));
+  Imf::OutputFile file(path.c_str(), header);
+  Imf::FrameBuffer fb;
+  const size_t xs = 3 * sizeof(float), ys = xs * img.width;
+  char* base = reinterpret_cast<char*>(const_cast<float*>(img.rgb.data()));
+  fb.insert("R", Imf::Slice(Imf::FLOAT, base, xs, ys));
+  fb.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xs, ys));
+  fb.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xs, ys));
+  file.setFrameBuffer(fb);
+  file.writePixels(img.height);
+}
+
+void write_pfm_file(const std::string& path, const Image& img) {
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (!f) throw InputError(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
+  std::fprintf(f, "PF\n%d %d\n-1.0\n", img.width, img.height);  // negative scale: little endian
+  bool ok = true;
+  for (int y = img.height - 1; y >= 0 && ok; --y)  // PFM rows run bottom to top
+    ok = std::fwrite(img.rgb.data() + size_t(y) * img.width * 3, sizeof(float), size_t(img.width) * 3, f) ==
+         size_t(img.width) * 3;
+  ok = (std::fclose(f) == 0) && ok;
+  if (!ok) throw InputError(path, 0, "write failed");
+}
+
+void write_png_file(const std::string& path, const Image& img) {
+  std::vector<unsigned char> px(img.rgb.size());
+  for (size_t i = 0; i < px.size(); ++i)
+    px[i] = (unsigned char)std::lround(255.f * linear_to_srgb(std::clamp(img.rgb[i], 0.f, 1.f)));
+  if (!stbi_write_png(path.c_str(), img.width, img.height, 3, px.data(), img.width * 3))
+    throw InputError(path, 0, "PNG write failed");
+}
+
+}  // namespace
+
+float linear_to_srgb(float v) {
+  return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
+}
+
+bool is_supported_image_extension(const std::string& path) {
+  std::string e = extension(path);
+  return e == ".exr" || e == ".pfm" || e == ".png";
+}
+
+void write_image(const std::string& path, const Image& img) {
+  std::string e = extension(path);
+  if (!is_supported_image_extension(path))
+    throw InputError(path, 0, "unknown image format '" + e + "' (use .exr, .pfm or .png)");
+  // Same directory, so the final rename is atomic.
+  std::string tmp = path + ".part-" + std::to_string(::getpid()) + e;
+  try {
+    if (e == ".exr")
+      write_exr_file(tmp, img);
+    else if (e == ".pfm")
+      write_pfm_file(tmp, img);
+    else
+      write_png_file(tmp, img);
+  } catch (const InputError&) {
+    std::remove(tmp.c_str());
+    throw;
+  } catch (const std::exception& ex) {
+    std::remove(tmp.c_str());
+    throw InputError(path, 0, ex.what());
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::remove(tmp.c_str());
+    throw InputError(path, 0, "cannot write: " + ec.message());
+  }
+}
+
+Image read_exr(const std::string& path) {
+  try {
+    Imf::InputFile file(path.c_str());
+    Imath::Box2i dw = file.header().dataWindow();
+    Image img;
+    img.width = dw.max.x - dw.min.x + 1;
+    img.height = dw.max.y - dw.min.y + 1;
+    img.rgb.assign(size_t(img.width) * img.height * 3, 0.f);
+    Imf::FrameBuffer fb;
+    const size_t xs = 3 * sizeof(float), ys = xs * img.width;
+    char* base = reinterpret_cast<char*>(img.rgb.data()) - (dw.min.x * xs + dw.min.y * ys);
+    fb.insert("R", Imf::Slice(Imf::FLOAT, base, xs, ys));
+    fb.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xs, ys));
+    fb.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xs, ys));
+    file.setFrameBuffer(fb);
+    file.readPixels(dw.min.y, dw.max.y);
+    return img;
+  } catch (const std::exception& ex) {
+    throw InputError(path, 0, std::string("cannot read OpenEXR: ") + ex.what());
+  }
+}
+
+Image read_pfm(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, 0, "cannot open");
+  std::string magic;
+  int w = 0, h = 0;
+  double scale = 0;
+  in >> magic >> w >> h >> scale;
+  in.get();
+  if (magic != "PF" || w <= 0 || h <= 0 || scale >= 0) throw InputError(path, 1, "not a little-endian RGB PFM");
+  Image img;
+  img.width = w;
+  img.height = h;
+  img.rgb.resize(size_t(w) * h * 3);
+  for (int y = h - 1; y >= 0; --y)
+    in.read(reinterpret_cast<char*>(img.rgb.data() + size_t(y) * w * 3), std::streamsize(w) * 3 * sizeof(float));
+  if (!in) throw InputError(path, 0, "truncated PFM");
+  return img;
+}
+
+}  // namespace luz

@@ -1,0 +1,25 @@
+// Image files: OpenEXR (float RGB), PFM, and sRGB PNG (clamped, 8 bit). The
+// format follows the extension. Writers go through a temporary file renamed
+// into place, so a failed write never leaves a half-written image under the
+// final name.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace luz {
+
+struct Image {
+  int width = 0, height = 0;
+  std::vector<float> rgb;  // interleaved, rows top to bottom
+};
+
+bool is_supported_image_extension(const std::string& path);
+// Throws InputError naming the path on failure.
+void write_image(const std::string& path, const Image& img);
+Image read_exr(const std::string& path);
+Image read_pfm(const std::string& path);
+
+float linear_to_srgb(float v);
+
+}  // namespace luz

@@ -1,0 +1,656 @@
+// Mitsuba 3 XML scenes. Supported: <default>/$name, ref/id, integrator
+// path|bsdf|light, sensor perspective, samplers, hdrfilm with box/tent/gaussian
+// rfilter, shapes obj/rectangle/cube/sphere, area and constant emitters, bsdfs
+// diffuse/twosided/phong. Anything else is an error naming file and line:
+// a renderer that silently ignores what it does not know renders the wrong image.
+#include <pugixml.hpp>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "luz/io/error.h"
+#include "luz/io/obj.h"
+#include "luz/io/scene_loader.h"
+#include "luz/math/transform.h"
+
+namespace luz {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+class MitsubaParser {
+ public:
+  MitsubaParser(const std::string& path, const Defines& defines) : path_(path), defines_(defines) {}
+
+  Scene parse() {
+    std::ifstream in(path_, std::ios::binary);
+    if (!in) throw InputError(path_, 0, "cannot open file");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    text_ = ss.str();
+    pugi::xml_parse_result res = doc_.load_buffer(text_.data(), text_.size(), pugi::parse_default);
+    if (!res) throw InputError(path_, line_at(size_t(res.offset)), std::string("malformed XML: ") + res.description());
+    pugi::xml_node root = doc_.child("scene");
+    if (!root) throw InputError(path_, 1, "root element must be <scene>");
+    for (pugi::xml_node n = doc_.first_child(); n; n = n.next_sibling())
+      if (n.type() == pugi::node_element && std::string(n.name()) != "scene")
+        error(n, "unexpected top-level element <" + std::string(n.name()) + ">");
+
+    // Parameters: <default> values, overridden by the command line's -D.
+    params_ = defines_;
+    for (pugi::xml_node n : root.children("default")) {
+      std::string name = attr(n, "name"), value = attr(n, "value");
+      if (!params_.count(name)) params_[name] = value;
+    }
+    for (const auto& [name, value] : defines_) {
+      bool declared = false;
+      for (pugi::xml_node n : root.children("default"))
+        if (n.attribute("name").value() == name) declared = true;
+      if (!declared) throw InputError(path_, 0, "-D " + name + ": the scene declares no <default name=\"" + name + "\">");
+    }
+
+    bool have_sensor = false;
+    for (pugi::xml_node n : root.children()) {
+      if (n.type() != pugi::node_element) continue;
+      std::string tag = n.name();
+      if (tag == "default") continue;
+      if (tag == "integrator") parse_integrator(n);
+      else if (tag == "sensor") {
+        if (have_sensor) error(n, "only one <sensor> is supported");
+        parse_sensor(n);
+        have_sensor = true;
+      } else if (tag == "bsdf") {
+        std::string id = n.attribute("id").value();
+        uint32_t m = parse_bsdf(n);
+        if (!id.empty()) {
+          if (bsdfs_.count(id)) error(n, "duplicate id '" + id + "'");
+          bsdfs_[id] = m;
+        }
+      } else if (tag == "shape") parse_shape(n);
+      else if (tag == "emitter") parse_environment(n);
+      else error(n, "unsupported element <" + tag + ">");
+    }
+    if (!have_sensor) throw InputError(path_, 0, "the scene has no <sensor>");
+    if (scene_.num_triangles() == 0 && scene_.spheres.empty()) throw InputError(path_, 0, "the scene has no shapes");
+    scene_.compile();
+    return std::move(scene_);
+  }
+
+ private:
+  // ---- errors and positions ----
+  int line_at(size_t offset) const {
+    offset = std::min(offset, text_.size());
+    return 1 + int(std::count(text_.begin(), text_.begin() + std::ptrdiff_t(offset), '\n'));
+  }
+  int line(pugi::xml_node n) const { return line_at(size_t(n.offset_debug())); }
+  [[noreturn]] void error(pugi::xml_node n, const std::string& msg) const { throw InputError(path_, line(n), msg); }
+
+  // Attribute with $parameter substitution.
+  std::string attr(pugi::xml_node n, const char* name, bool required = true) const {
+    pugi::xml_attribute a = n.attribute(name);
+    if (!a) {
+      if (required) error(n, "<" + std::string(n.name()) + "> lacks the attribute '" + name + "'");
+      return "";
+    }
+    std::string v = a.value(), out;
+    for (size_t i = 0; i < v.size();) {
+      if (v[i] != '$') {
+        out += v[i++];
+        continue;
+      }
+      size_t j = i + 1;
+      while (j < v.size() && (std::isalnum((unsigned char)v[j]) || v[j] == '_')) ++j;
+      std::string key = v.substr(i + 1, j - i - 1);
+      auto it = params_.find(key);
+      if (key.empty() || it == params_.end()) error(n, "undefined parameter '$" + key + "'");
+      out += it->second;
+      i = j;
+    }
+    return out;
+  }
+
+  // ---- numbers ----
+  double number(pugi::xml_node n, const std::string& s) const {
+    const char* b = s.data();
+    const char* e = b + s.size();
+    while (b < e && std::isspace((unsigned char)*b)) ++b;
+    while (e > b && std::isspace((unsigned char)e[-1])) --e;
+    if (b < e && *b == '+') ++b;
+    double v = 0;
+    auto r = std::from_chars(b, e, v);
+    if (r.ec != std::errc() || r.ptr != e || b == e) error(n, "'" + s + "' is not a number");
+    if (!std::isfinite(v)) error(n, "'" + s + "' is not a finite number");
+    return v;
+  }
+  std::vector<double> numbers(pugi::xml_node n, const std::string& s) const {
+    std::vector<double> out;
+    std::string tok;
+    for (size_t i = 0; i <= s.size(); ++i) {
+      if (i == s.size() || s[i] == ',' || std::isspace((unsigned char)s[i])) {
+        if (!tok.empty()) out.push_back(number(n, tok));
+        tok.clear();
+      } else {
+        tok += s[i];
+      }
+    }
+    return out;
+  }
+  Vec3 vec3_attr(pugi::xml_node n, const char* name) const {
+    std::vector<double> v = numbers(n, attr(n, name));
+    if (v.size() != 3) error(n, std::string("'") + name + "' needs 3 numbers");
+    return {float(v[0]), float(v[1]), float(v[2])};
+  }
+
+  // ---- properties of one plugin element ----
+  struct Props {
+    const MitsubaParser* p;
+    pugi::xml_node owner;
+    std::map<std::string, pugi::xml_node> by_name;
+    std::set<std::string> used;
+
+    Props(const MitsubaParser* parser, pugi::xml_node node) : p(parser), owner(node) {
+      static const std::set<std::string> kTypes = {"integer", "float",  "boolean", "string",   "rgb",
+                                                   "spectrum", "point", "vector",  "transform"};
+      for (pugi::xml_node c : node.children()) {
+        if (c.type() != pugi::node_element) continue;
+        if (!kTypes.count(c.name())) continue;
+        std::string name = p->attr(c, "name");
+        if (by_name.count(name)) p->error(c, "parameter '" + name + "' given twice");
+        by_name[name] = c;
+      }
+    }
+    pugi::xml_node get(const std::string& name, std::initializer_list<const char*> types) {
+      auto it = by_name.find(name);
+      if (it == by_name.end()) return {};
+      used.insert(name);
+      for (const char* t : types)
+        if (std::string(it->second.name()) == t) return it->second;
+      std::string expect;
+      for (const char* t : types) expect += std::string(expect.empty() ? "" : " or ") + "<" + t + ">";
+      p->error(it->second, "parameter '" + name + "' has the wrong type <" + it->second.name() + ">, expected " +
+                               expect);
+    }
+    double get_float(const std::string& name, double def) {
+      pugi::xml_node n = get(name, {"float", "integer"});
+      return n ? p->number(n, p->attr(n, "value")) : def;
+    }
+    long get_int(const std::string& name, long def) {
+      pugi::xml_node n = get(name, {"integer"});
+      if (!n) return def;
+      double v = p->number(n, p->attr(n, "value"));
+      if (v != std::floor(v) || std::fabs(v) > 2e9) p->error(n, "'" + name + "' must be an integer");
+      return long(v);
+    }
+    bool get_bool(const std::string& name, bool def) {
+      pugi::xml_node n = get(name, {"boolean"});
+      if (!n) return def;
+      std::string v = p->attr(n, "value");
+      if (v == "true") return true;
+      if (v == "false") return false;
+      p->error(n, "'" + v + "' is not a boolean (true or false)");
+    }
+    std::string get_string(const std::string& name, const std::string& def) {
+      pugi::xml_node n = get(name, {"string"});
+      return n ? p->attr(n, "value") : def;
+    }
+    Color get_color(const std::string& name, Color def) {
+      pugi::xml_node n = get(name, {"rgb", "spectrum", "float"});
+      if (!n) return def;
+      std::string v = p->attr(n, "value");
+      if (std::string(n.name()) == "spectrum" && v.find(':') != std::string::npos)
+        p->error(n, "sampled spectra (wavelength:value) are not supported; give <rgb> or one value");
+      std::vector<double> c = p->numbers(n, v);
+      if (c.size() == 1) return {float(c[0]), float(c[0]), float(c[0])};
+      if (c.size() == 3 && std::string(n.name()) != "float") return {float(c[0]), float(c[1]), float(c[2])};
+      p->error(n, "'" + name + "' needs 1 or 3 numbers");
+    }
+    Vec3 get_point(const std::string& name, Vec3 def) {
+      pugi::xml_node n = get(name, {"point", "vector"});
+      if (!n) return def;
+      if (n.attribute("value")) return p->vec3_attr(n, "value");
+      return {float(p->number(n, p->attr(n, "x"))), float(p->number(n, p->attr(n, "y"))),
+              float(p->number(n, p->attr(n, "z")))};
+    }
+    Matrix4 get_transform(const std::string& name) {
+      pugi::xml_node n = get(name, {"transform"});
+      return n ? p->parse_transform(n) : Matrix4{};
+    }
+    bool has(const std::string& name) const { return by_name.count(name) > 0; }
+    // Any parameter nobody asked for is an error.
+    void check_all_used() const {
+      for (const auto& [name, node] : by_name)
+        if (!used.count(name))
+          p->error(node, "unknown parameter '" + name + "' for <" + owner.name() + " type=\"" +
+                             p->attr(owner, "type", false) + "\">");
+    }
+  };
+
+  // Nested plugin children (everything that is not a property).
+  void check_children(pugi::xml_node n, std::initializer_list<const char*> allowed) const {
+    static const std::set<std::string> kProps = {"integer", "float",  "boolean", "string",   "rgb",
+                                                 "spectrum", "point", "vector",  "transform"};
+    for (pugi::xml_node c : n.children()) {
+      if (c.type() != pugi::node_element || kProps.count(c.name())) continue;
+      bool ok = false;
+      for (const char* a : allowed) ok = ok || std::string(c.name()) == a;
+      if (!ok) error(c, "<" + std::string(c.name()) + "> is not allowed inside <" + n.name() + ">");
+    }
+  }
+
+  Matrix4 parse_transform(pugi::xml_node t) const {
+    Matrix4 m;
+    for (pugi::xml_node op : t.children()) {
+      if (op.type() != pugi::node_element) continue;
+      std::string k = op.name();
+      Matrix4 step;
+      if (k == "matrix") {
+        std::vector<double> v = numbers(op, attr(op, "value"));
+        if (v.size() != 16 && v.size() != 9) error(op, "<matrix> needs 16 (or 9) numbers");
+        int dim = v.size() == 16 ? 4 : 3;
+        for (int i = 0; i < dim; ++i)
+          for (int j = 0; j < dim; ++j) step.m[i][j] = v[size_t(i * dim + j)];
+        if (dim == 4 && (step.m[3][0] != 0 || step.m[3][1] != 0 || step.m[3][2] != 0 || step.m[3][3] != 1))
+          error(op, "projective <matrix> (last row not 0 0 0 1) is not supported");
+      } else if (k == "translate" || k == "scale") {
+        Vec3 v = k == "scale" ? Vec3{1, 1, 1} : Vec3{};
+        if (op.attribute("value")) {
+          std::vector<double> c = numbers(op, attr(op, "value"));
+          if (c.size() == 1 && k == "scale") v = {float(c[0]), float(c[0]), float(c[0])};
+          else if (c.size() == 3) v = {float(c[0]), float(c[1]), float(c[2])};
+          else error(op, "<" + k + "> value needs 3 numbers");
+        }
+        for (int i = 0; i < 3; ++i) {
+          const char* axis[] = {"x", "y", "z"};
+          if (op.attribute(axis[i])) v[i] = float(number(op, attr(op, axis[i])));
+        }
+        step = k == "scale" ? Matrix4::scale(v) : Matrix4::translate(v);
+      } else if (k == "rotate") {
+        Vec3 axis{};
+        if (op.attribute("value")) axis = vec3_attr(op, "value");
+        const char* names[] = {"x", "y", "z"};
+        for (int i = 0; i < 3; ++i)
+          if (op.attribute(names[i])) axis[i] = float(number(op, attr(op, names[i])));
+        if (length(axis) == 0.f) error(op, "<rotate> needs a non-zero axis");
+        step = Matrix4::rotate(axis, number(op, attr(op, "angle")));
+      } else if (k == "lookat") {
+        Vec3 o = vec3_attr(op, "origin"), tg = vec3_attr(op, "target");
+        Vec3 up = op.attribute("up") ? vec3_attr(op, "up") : Vec3{0, 1, 0};
+        Vec3 dir = tg - o;
+        if (length(dir) == 0.f) error(op, "<lookat> origin and target coincide");
+        if (length(cross(normalize(up), normalize(dir))) < 1e-6f) error(op, "<lookat> up is parallel to the view direction");
+        step = Matrix4::look_at(o, tg, up);
+      } else {
+        error(op, "unsupported transform operation <" + k + ">");
+      }
+      m = step * m;
+    }
+    if (std::fabs(m.det3()) < 1e-30) error(t, "transform is singular");
+    return m;
+  }
+
+  // ---- plugins ----
+  void parse_integrator(pugi::xml_node n) {
+    std::string type = attr(n, "type");
+    IntegratorParams& ip = scene_.settings.integrator;
+    if (type == "path") ip.type = IntegratorType::Path;
+    else if (type == "bsdf") ip.type = IntegratorType::Bsdf;
+    else if (type == "light") ip.type = IntegratorType::Light;
+    else error(n, "unknown integrator '" + type + "' (supported: path, bsdf, light)");
+    check_children(n, {});
+    Props p(this, n);
+    ip.max_depth = int(p.get_int("max_depth", -1));
+    ip.rr_depth = int(p.get_int("rr_depth", 5));
+    if (ip.max_depth < -1 || ip.max_depth == 0) error(n, "max_depth must be -1 (unbounded) or ≥ 1");
+    if (ip.rr_depth < 1) error(n, "rr_depth must be ≥ 1");
+    if (p.get_bool("hide_emitters", false)) error(n, "hide_emitters is not supported");
+    p.check_all_used();
+  }
+
+  void parse_sensor(pugi::xml_node n) {
+    std::string type = attr(n, "type");
+    if (type != "perspective") error(n, "unknown sensor '" + type + "' (supported: perspective)");
+    check_children(n, {"sampler", "film"});
+    Props p(this, n);
+    double fov = p.get_float("fov", 30.0);
+    std::string axis = p.get_string("fov_axis", "x");
+    Matrix4 to_world = p.get_transform("to_world");
+    double near_clip = p.get_float("near_clip", 1e-2), far_clip = p.get_float("far_clip", 1e4);
+    if (!(near_clip > 0 && far_clip > near_clip)) error(n, "need 0 < near_clip < far_clip");
+    if (!(fov > 0 && fov < 180)) error(n, "fov must be in (0, 180) degrees");
+    p.check_all_used();
+
+    int width = 768, height = 576;
+    Camera& cam = scene_.camera;
+    for (pugi::xml_node c : n.children("sampler")) parse_sampler(c);
+    for (pugi::xml_node c : n.children("film")) parse_film(c, width, height);
+    cam.width = width;
+    cam.height = height;
+    double aspect = double(width) / height, t = std::tan(fov * M_PI / 360.0), tx, ty;
+    if (axis == "x") tx = t, ty = t / aspect;
+    else if (axis == "y") ty = t, tx = t * aspect;
+    else if (axis == "diagonal") {
+      double d = t / std::sqrt(1 + 1 / (aspect * aspect));
+      tx = d, ty = d / aspect;
+    } else if (axis == "smaller") (aspect > 1 ? (ty = t, tx = t * aspect) : (tx = t, ty = t / aspect));
+    else if (axis == "larger") (aspect > 1 ? (tx = t, ty = t / aspect) : (ty = t, tx = t * aspect));
+    else error(n, "fov_axis must be x, y, diagonal, smaller or larger");
+    cam.tan_half_x = float(tx);
+    cam.tan_half_y = float(ty);
+    cam.x_axis = normalize(to_world.vector({1, 0, 0}));
+    cam.y_axis = normalize(to_world.vector({0, 1, 0}));
+    cam.z_axis = normalize(to_world.vector({0, 0, 1}));
+    cam.origin = to_world.point({0, 0, 0});
+  }
+
+  void parse_sampler(pugi::xml_node n) {
+    std::string type = attr(n, "type");
+    RenderSettings& s = scene_.settings;
+    if (type == "independent") s.sampler = SamplerType::Independent;
+    else if (type == "stratified") s.sampler = SamplerType::Stratified;
+    else if (type == "sobol" || type == "ldsampler") s.sampler = SamplerType::Sobol;
+    else error(n, "unknown sampler '" + type + "' (supported: independent, stratified, sobol)");
+    check_children(n, {});
+    Props p(this, n);
+    long spp = p.get_int("sample_count", 4);
+    if (spp < 1) error(n, "sample_count must be ≥ 1");
+    s.spp = uint32_t(spp);
+    long seed = p.get_int("seed", 0);
+    s.seed = uint64_t(seed);
+    p.get_bool("jitter", true);
+    p.check_all_used();
+  }
+
+  void parse_film(pugi::xml_node n, int& width, int& height) {
+    std::string type = attr(n, "type");
+    if (type != "hdrfilm") error(n, "unknown film '" + type + "' (supported: hdrfilm)");
+    check_children(n, {"rfilter"});
+    Props p(this, n);
+    long w = p.get_int("width", 768), h = p.get_int("height", 576);
+    if (w < 1 || h < 1 || w > 65536 || h > 65536) error(n, "film size must be between 1 and 65536");
+    width = int(w);
+    height = int(h);
+    p.get_string("file_format", "openexr");
+    std::string pf = p.get_string("pixel_format", "rgb");
+    if (pf != "rgb" && pf != "rgba") error(n, "pixel_format '" + pf + "' is not supported (rgb)");
+    p.get_string("component_format", "float16");
+    p.get_bool("banner", false);
+    p.get_bool("high_quality_edges", false);
+    p.check_all_used();
+    for (pugi::xml_node r : n.children("rfilter")) {
+      std::string ft = attr(r, "type");
+      check_children(r, {});
+      Props rp(this, r);
+      if (ft == "box") scene_.settings.filter = FilterKind::Box;
+      else if (ft == "tent") scene_.settings.filter = FilterKind::Tent;
+      else if (ft == "gaussian") {
+        scene_.settings.filter = FilterKind::Gaussian;
+        double sd = rp.get_float("stddev", 0.5);
+        if (sd != 0.5) error(r, "only the default gaussian stddev 0.5 is supported");
+      } else {
+        error(r, "unknown rfilter '" + ft + "' (supported: box, tent, gaussian)");
+      }
+      rp.check_all_used();
+    }
+  }
+
+  Color checked_reflectance(pugi::xml_node n, Props& p, const char* name, Color def) {
+    Color c = p.get_color(name, def);
+    for (int k = 0; k < 3; ++k)
+      if (c[k] < 0.f || c[k] > 1.f) error(n, std::string("'") + name + "' must lie in [0, 1]");
+    return c;
+  }
+
+  Bsdf parse_bsdf_value(pugi::xml_node n) {
+    std::string type = attr(n, "type");
+    if (type == "twosided") {
+      check_children(n, {"bsdf", "ref"});
+      Props p(this, n);
+      p.check_all_used();
+      std::vector<pugi::xml_node> inner;
+      for (pugi::xml_node c : n.children())
+        if (c.type() == pugi::node_element && (std::string(c.name()) == "bsdf" || std::string(c.name()) == "ref"))
+          inner.push_back(c);
+      if (inner.size() != 1) error(n, "twosided needs exactly one nested bsdf");
+      Bsdf b = std::string(inner[0].name()) == "ref" ? scene_.materials[resolve_ref(inner[0])]
+                                                     : parse_bsdf_value(inner[0]);
+      b.two_sided = true;
+      return b;
+    }
+    check_children(n, {});
+    Props p(this, n);
+    Bsdf b;
+    if (type == "diffuse") {
+      b = Bsdf::make_diffuse(checked_reflectance(n, p, "reflectance", {0.5f, 0.5f, 0.5f}), false);
+    } else if (type == "phong") {
+      Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
+      Color ks = checked_reflectance(n, p, "specular_reflectance", {0.2f, 0.2f, 0.2f});
+      double e = p.get_float("exponent", 30.0);
+      if (!(e >= 0)) error(n, "exponent must be ≥ 0");
+      for (int k = 0; k < 3; ++k)
+        if (kd[k] + ks[k] > 1.f)
+          error(n, "diffuse_reflectance + specular_reflectance > 1: the material would create energy");
+      b = Bsdf::make_phong(kd, ks, float(e), false);
+    } else {
+      error(n, "unknown bsdf '" + type + "' (supported: diffuse, phong, twosided)");
+    }
+    p.check_all_used();
+    return b;
+  }
+  uint32_t parse_bsdf(pugi::xml_node n) { return scene_.add_material(parse_bsdf_value(n)); }
+
+  uint32_t resolve_ref(pugi::xml_node r) {
+    std::string id = attr(r, "id");
+    auto it = bsdfs_.find(id);
+    if (it == bsdfs_.end()) error(r, "no bsdf with id '" + id + "' defined before this point");
+    return it->second;
+  }
+
+  void parse_environment(pugi::xml_node n) {
+    std::string type = attr(n, "type");
+    if (type != "constant") error(n, "unknown top-level emitter '" + type + "' (supported: constant)");
+    check_children(n, {});
+    Props p(this, n);
+    Color L = p.get_color("radiance", {1, 1, 1});
+    p.check_all_used();
+    for (int k = 0; k < 3; ++k)
+      if (L[k] < 0.f) error(n, "radiance must not be negative");
+    for (const Emitter& e : scene_.emitters)
+      if (e.type == EmitterType::Constant) error(n, "only one environment emitter is supported");
+    Emitter e;
+    e.type = EmitterType::Constant;
+    e.radiance = L;
+    scene_.emitters.push_back(e);
+  }
+
+  void parse_shape(pugi::xml_node n) {
+    std::string type = attr(n, "type");
+    check_children(n, {"bsdf", "ref", "emitter"});
+    Props p(this, n);
+    Matrix4 to_world = p.get_transform("to_world");
+    bool flip = p.get_bool("flip_normals", false);
+
+    // Material: nested <bsdf>, a <ref>, or Mitsuba's default (diffuse 0.5).
+    int material = -1;
+    for (pugi::xml_node c : n.children()) {
+      if (c.type() != pugi::node_element) continue;
+      std::string tag = c.name();
+      if (tag != "bsdf" && tag != "ref") continue;
+      if (material >= 0) error(c, "a shape takes one bsdf");
+      material = int(tag == "ref" ? resolve_ref(c) : parse_bsdf(c));
+    }
+    if (material < 0) material = int(scene_.add_material(Bsdf::make_diffuse({0.5f, 0.5f, 0.5f})));
+
+    const Color* emission = nullptr;
+    Color radiance;
+    for (pugi::xml_node c : n.children("emitter")) {
+      if (emission) error(c, "a shape takes one emitter");
+      std::string et = attr(c, "type");
+      if (et != "area") error(c, "unknown shape emitter '" + et + "' (supported: area)");
+      check_children(c, {});
+      Props ep(this, c);
+      radiance = ep.get_color("radiance", {1, 1, 1});
+      ep.check_all_used();
+      for (int k = 0; k < 3; ++k)
+        if (radiance[k] < 0.f) error(c, "radiance must not be negative");
+      emission = &radiance;
+    }
+
+    std::vector<Vec3> pos, nrm;
+    std::vector<uint32_t> idx;
+    if (type == "sphere") {
+      Vec3 center = p.get_point("center", {});
+      double radius = p.get_float("radius", 1.0);
+      if (!(radius > 0)) error(n, "radius must be positive");
+      p.check_all_used();
+      Vec3 c = to_world.point(center);
+      float sx = length(to_world.vector({1, 0, 0})), sy = length(to_world.vector({0, 1, 0})),
+            sz = length(to_world.vector({0, 0, 1}));
+      if (std::fabs(sx - sy) > 1e-4f * sx || std::fabs(sx - sz) > 1e-4f * sx)
+        error(n, "a sphere's to_world must scale uniformly");
+      scene_.add_sphere(c, float(radius) * sx, uint32_t(material), emission, flip);
+      return;
+    }
+    if (type == "rectangle") {
+      p.check_all_used();
+      pos = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+      nrm.assign(4, {0, 0, 1});
+      idx = {0, 1, 2, 2, 3, 0};
+    } else if (type == "cube") {
+      p.check_all_used();
+      // Each face: 4 corners counter-clockwise seen from outside.
+      for (int axis = 0; axis < 3; ++axis)
+        for (int sgn = -1; sgn <= 1; sgn += 2) {
+          Vec3 nn{};
+          nn[axis] = float(sgn);
+          int a = (axis + 1) % 3, b = (axis + 2) % 3;
+          uint32_t base = uint32_t(pos.size());
+          const float corners[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+          for (const auto& cr : corners) {
+            Vec3 v{};
+            v[axis] = float(sgn);
+            v[a] = cr[0] * float(sgn);
+            v[b] = cr[1];
+            pos.push_back(v);
+            nrm.push_back(nn);
+          }
+          idx.insert(idx.end(), {base, base + 1, base + 2, base + 2, base + 3, base});
+        }
+    } else if (type == "obj") {
+      std::string file = p.get_string("filename", "");
+      if (file.empty()) error(n, "obj shape needs a 'filename'");
+      bool face_normals = p.get_bool("face_normals", false);
+      p.check_all_used();
+      fs::path full = fs::path(path_).parent_path() / file;
+      ObjMesh mesh = read_obj(full.string(), false);
+      pos = std::move(mesh.positions);
+      if (!face_normals) nrm = std::move(mesh.normals);
+      idx = std::move(mesh.indices);
+    } else {
+      error(n, "unknown shape '" + type + "' (supported: obj, rectangle, cube, sphere)");
+    }
+
+    // Bake the transform. Analytic rectangle and cube keep the normal given by
+    // the normal transform; the winding is set to agree with it.
+    bool analytic = type != "obj";
+    for (Vec3& v : pos) v = to_world.point(v);
+    for (Vec3& v : nrm) v = to_world.normal(v);
+    for (size_t k = 0; k + 2 < idx.size(); k += 3) {
+      Vec3 g = cross(pos[idx[k + 1]] - pos[idx[k]], pos[idx[k + 2]] - pos[idx[k]]);
+      if (length(g) == 0.f) continue;
+      bool swap = analytic && dot(g, nrm[idx[k]]) < 0.f;
+      if (swap != flip) std::swap(idx[k + 1], idx[k + 2]);
+    }
+    if (flip)
+      for (Vec3& v : nrm) v = -v;
+    if (analytic) nrm.clear();  // flat faces: the geometric normal is exact
+    scene_.add_mesh(pos, nrm, idx, uint32_t(material), emission);
+  }
+
+  std::string path_;
+  Defines defines_;
+  Defines params_;
+  std::string text_;
+  pugi::xml_document doc_;
+  std::map<std::string, uint32_t> bsdfs_;
+  Scene scene_;
+};
+
+std::string lower_extension(const std::string& path) {
+  std::string e = fs::path(path).extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return e;
+}
+
+}  // namespace
+
+Scene load_mitsuba(const std::string& path, const Defines& defines) { return MitsubaParser(path, defines).parse(); }
+
+Scene load_obj_scene(const std::string& path) {
+  ObjMesh mesh = read_obj(path, true);
+  Scene scene;
+  // One Luz material per MTL material (Kd/Ks/Ns: modified Phong, two-sided).
+  std::vector<uint32_t> mat_index;
+  std::vector<int> emissive;
+  for (const ObjMaterial& m : mesh.materials) {
+    for (int k = 0; k < 3; ++k) {
+      if (m.kd[k] < 0 || m.ks[k] < 0 || m.kd[k] + m.ks[k] > 1.f)
+        throw InputError(path, 0, "material '" + m.name + "': Kd + Ks must lie in [0, 1] per channel");
+      if (!std::isfinite(m.ke[k]) || m.ke[k] < 0) throw InputError(path, 0, "material '" + m.name + "': bad Ke");
+    }
+    if (!(m.ns >= 0)) throw InputError(path, 0, "material '" + m.name + "': Ns must be ≥ 0");
+    mat_index.push_back(is_black(m.ks) ? scene.add_material(Bsdf::make_diffuse(m.kd, true))
+                                       : scene.add_material(Bsdf::make_phong(m.kd, m.ks, m.ns, true)));
+  }
+  uint32_t fallback = scene.add_material(Bsdf::make_diffuse({0.5f, 0.5f, 0.5f}, true));
+  // Split faces by material so each group is one add_mesh call.
+  size_t nmat = mesh.materials.size();
+  for (size_t g = 0; g <= nmat; ++g) {
+    std::vector<uint32_t> idx;
+    for (size_t f = 0; f < mesh.face_material.size(); ++f) {
+      int fm = mesh.face_material[f];
+      size_t group = (fm < 0 || size_t(fm) >= nmat) ? nmat : size_t(fm);
+      if (group != g) continue;
+      idx.insert(idx.end(), {mesh.indices[3 * f], mesh.indices[3 * f + 1], mesh.indices[3 * f + 2]});
+    }
+    if (idx.empty()) continue;
+    const Color* emission = (g < nmat && !is_black(mesh.materials[g].ke)) ? &mesh.materials[g].ke : nullptr;
+    // Positions are shared; add_mesh copies them per group (simple, meshes are small).
+    scene.add_mesh(mesh.positions, mesh.normals, idx, g < nmat ? mat_index[g] : fallback, emission);
+  }
+
+  // Camera framing the bounds from +z, 40° field of view.
+  scene.compile();
+  Vec3 c = (scene.bounds_min + scene.bounds_max) * 0.5f;
+  Vec3 ext = scene.bounds_max - scene.bounds_min;
+  float half = 0.5f * std::max(ext.x, ext.y);
+  float t = std::tan(20.f * kPi / 180.f);
+  Camera& cam = scene.camera;
+  cam.width = cam.height = 512;
+  cam.tan_half_x = cam.tan_half_y = t;
+  cam.origin = {c.x, c.y, scene.bounds_max.z + half / t * 1.05f};
+  cam.x_axis = {-1, 0, 0};
+  cam.y_axis = {0, 1, 0};
+  cam.z_axis = {0, 0, -1};
+  scene.settings.spp = 64;
+  scene.settings.integrator.max_depth = -1;
+  scene.compile();
+  return scene;
+}
+
+Scene load_scene(const std::string& path, const Defines& defines) {
+  std::string e = lower_extension(path);
+  if (e == ".xml") return load_mitsuba(path, defines);
+  if (e == ".obj") {
+    if (!defines.empty()) throw InputError(path, 0, "-D applies to Mitsuba XML scenes only");
+    return load_obj_scene(path);
+  }
+  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj)");
+}
+
+}  // namespace luz

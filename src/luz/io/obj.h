@@ -1,0 +1,28 @@
+// OBJ meshes through tinyobjloader, with line numbers for errors.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "luz/math/vec.h"
+
+namespace luz {
+
+struct ObjMaterial {
+  std::string name;
+  Color kd{0.5f, 0.5f, 0.5f}, ks{}, ke{};
+  float ns = 1.f;
+};
+
+struct ObjMesh {
+  std::vector<Vec3> positions, normals;  // normals empty or one per position
+  std::vector<uint32_t> indices;
+  std::vector<int> face_material;  // per triangle, -1: none
+  std::vector<ObjMaterial> materials;
+};
+
+// Throws InputError. Faces are triangulated; vertices are de-indexed per
+// (position, normal) pair.
+ObjMesh read_obj(const std::string& path, bool with_materials);
+
+}  // namespace luz

@@ -1,0 +1,27 @@
+// Emitters: diffuse area lights on triangles and spheres (one-sided, emitting
+// on the side of the geometric normal), and the constant environment.
+#pragma once
+
+#include "luz/geometry/shapes.h"
+#include "luz/sampling/warp.h"
+
+namespace luz {
+
+enum class EmitterType : uint32_t { Triangle, Sphere, Constant };
+
+struct Emitter {
+  EmitterType type = EmitterType::Triangle;
+  uint32_t prim = 0;  // triangle or sphere index
+  Color radiance;
+};
+
+// A sampled point on an emitter as seen from a reference point.
+struct LightSample {
+  Vec3 wi;          // unit direction from the reference point toward the light
+  float dist = 0;   // distance to the light point (infinite for the environment)
+  Vec3 p, n;        // the light point and its normal (area lights)
+  Color radiance;   // emitted radiance toward the reference point
+  float pdf = 0.f;  // solid-angle density at the reference point (selection excluded)
+};
+
+}  // namespace luz

@@ -1,0 +1,166 @@
+// Samplers. A sample value is a pure function of (seed, pixel, sample index,
+// dimension): no state is carried between samples, so images do not depend on
+// the thread count or on the order tiles are rendered in, and a render can
+// resume at any sample index.
+#pragma once
+
+#include "luz/math/hash.h"
+#include "luz/math/vec.h"
+
+namespace luz {
+
+enum class SamplerType : uint32_t { Independent, Stratified, Sobol };
+
+struct SamplerDesc {
+  SamplerType type = SamplerType::Independent;
+  uint32_t spp = 16;
+  uint64_t seed = 0;
+  // Stratified: spp = strata_x * strata_y for 2D requests.
+  uint32_t strata_x = 4, strata_y = 4;
+};
+
+// Kensler 2013 ("Correlated Multi-Jittered Sampling"), the hashed permutation of
+// [0, n): element i of the permutation chosen by key p. Cycle-walks until < n.
+LUZ_INLINE uint32_t permute(uint32_t i, uint32_t n, uint32_t p) {
+  if (n <= 1) return 0;
+  uint32_t w = n - 1;
+  w |= w >> 1;
+  w |= w >> 2;
+  w |= w >> 4;
+  w |= w >> 8;
+  w |= w >> 16;
+  do {
+    i ^= p;
+    i *= 0xe170893du;
+    i ^= p >> 16;
+    i ^= (i & w) >> 4;
+    i ^= p >> 8;
+    i *= 0x0929eb3fu;
+    i ^= p >> 23;
+    i ^= (i & w) >> 1;
+    i *= 1u | p >> 27;
+    i *= 0x6935fa69u;
+    i ^= (i & w) >> 11;
+    i *= 0x74dcb303u;
+    i ^= (i & w) >> 2;
+    i *= 0x9e501cc3u;
+    i ^= (i & w) >> 2;
+    i *= 0xc860a3dfu;
+    i &= w;
+    i ^= i >> 5;
+  } while (i >= n);
+  return (i + p) % n;
+}
+
+// Nested uniform (Owen) scrambling of a 32-bit fixed-point value, by the
+// Laine-Karras construction with Vegdahl's improved hash (see Burley 2020,
+// "Practical Hash-based Owen Scrambling", JCGT 9(4)).
+LUZ_INLINE uint32_t laine_karras_permutation(uint32_t x, uint32_t seed) {
+  x += seed;
+  x ^= x * 0x6c50b47cu;
+  x ^= x * 0xb82f1e52u;
+  x ^= x * 0xc7afe638u;
+  x ^= x * 0x8d22f6e6u;
+  return x;
+}
+LUZ_INLINE uint32_t owen_scramble(uint32_t x, uint32_t seed) {
+  return reverse_bits32(laine_karras_permutation(reverse_bits32(x), seed));
+}
+
+// The first two Sobol dimensions: van der Corput, and the dimension with
+// primitive polynomial x + 1 (direction numbers v_k = v_{k-1} ^ (v_{k-1} >> 1)).
+LUZ_INLINE uint32_t sobol_dim0(uint32_t i) { return reverse_bits32(i); }
+LUZ_INLINE uint32_t sobol_dim1(uint32_t i) {
+  uint32_t r = 0, v = 1u << 31;
+  for (; i; i >>= 1, v ^= v >> 1)
+    if (i & 1u) r ^= v;
+  return r;
+}
+
+// One sample's stream of numbers. Dimensions are requested in a fixed order by
+// the integrator (it sets `dim` explicitly at each bounce); 1D and 2D requests
+// each consume one dimension index.
+struct Sampler {
+  SamplerDesc desc;
+  uint64_t pixel_key = 0;  // hash of (seed, pixel)
+  uint32_t index = 0;      // sample index within the pixel
+  uint32_t dim = 0;
+
+  LUZ_INLINE void start(const SamplerDesc& d, uint32_t px, uint32_t py, uint32_t sample_index) {
+    desc = d;
+    pixel_key = hash4(d.seed, px, py, 0x5a3c1e9dull);
+    index = sample_index;
+    dim = 0;
+  }
+
+  // Padded Sobol: each dimension draws the pixel's spp points in its own random
+  // order (a hashed permutation within each pass of spp), so dimensions are
+  // decorrelated while each stays a stratified, Owen-scrambled set.
+  LUZ_INLINE uint32_t shuffle(uint32_t key) const {
+    uint32_t n = desc.spp, pass = index / n;
+    return pass * n + permute(index % n, n, key);
+  }
+
+  LUZ_INLINE float next_1d() {
+    uint32_t d = dim++;
+    switch (desc.type) {
+      case SamplerType::Stratified: {
+        uint32_t n = desc.spp, pass = index / n, i = index % n;
+        uint64_t key = hash_combine(hash_combine(pixel_key, d), pass);
+        uint32_t stratum = permute(i, n, uint32_t(key));
+        float jitter = to_unit_float(hash_combine(key, i + 1));
+        return min((stratum + jitter) / float(n), kOneMinusEpsilon);
+      }
+      case SamplerType::Sobol: {
+        uint64_t key = hash_combine(pixel_key, d);
+        uint32_t i = shuffle(uint32_t(key));
+        return to_unit_float32(owen_scramble(sobol_dim0(i), uint32_t(key >> 32)));
+      }
+      default:
+        return to_unit_float(hash_combine(hash_combine(pixel_key, index), d));
+    }
+  }
+
+  LUZ_INLINE Vec2 next_2d() {
+    uint32_t d = dim++;
+    switch (desc.type) {
+      case SamplerType::Stratified: {
+        uint32_t n = desc.spp, pass = index / n, i = index % n;
+        uint64_t key = hash_combine(hash_combine(pixel_key, d ^ 0x80000000u), pass);
+        uint32_t stratum = permute(i, n, uint32_t(key));
+        uint32_t sx = stratum % desc.strata_x, sy = stratum / desc.strata_x;
+        uint64_t h = hash_combine(key, i + 1);
+        float jx = to_unit_float(h), jy = to_unit_float(mix64(h));
+        return {min((sx + jx) / float(desc.strata_x), kOneMinusEpsilon),
+                min((sy + jy) / float(desc.strata_y), kOneMinusEpsilon)};
+      }
+      case SamplerType::Sobol: {
+        uint64_t key = hash_combine(pixel_key, d ^ 0x80000000u);
+        uint64_t key2 = mix64(key);
+        uint32_t i = shuffle(uint32_t(key));
+        return {to_unit_float32(owen_scramble(sobol_dim0(i), uint32_t(key >> 32))),
+                to_unit_float32(owen_scramble(sobol_dim1(i), uint32_t(key2)))};
+      }
+      default: {
+        uint64_t h = hash_combine(hash_combine(pixel_key, index), d ^ 0x80000000u);
+        return {to_unit_float(h), to_unit_float(mix64(h))};
+      }
+    }
+  }
+};
+
+// Factor spp into strata_x * strata_y, as square as the divisors allow.
+inline SamplerDesc make_sampler_desc(SamplerType type, uint32_t spp, uint64_t seed) {
+  SamplerDesc d;
+  d.type = type;
+  d.spp = spp < 1 ? 1 : spp;
+  d.seed = seed;
+  uint32_t sx = 1;
+  for (uint32_t k = 1; k * k <= d.spp; ++k)
+    if (d.spp % k == 0) sx = k;
+  d.strata_x = sx;
+  d.strata_y = d.spp / sx;
+  return d;
+}
+
+}  // namespace luz

@@ -1,0 +1,82 @@
+// Warps from the unit square to the domains Luz samples, each with its pdf.
+// Every one of them is checked by a chi-square test (tests/test_warp.cpp).
+#pragma once
+
+#include "luz/math/vec.h"
+
+namespace luz {
+
+// Shirley & Chiu 1997 concentric map: uniform on the unit disk, low distortion.
+// (The seed's x = r1 cos 2πr2, y = r1 sin 2πr2 is not uniform: the radius must be
+// sqrt(r1) or this map. tests/test_warp.cpp shows the difference.)
+LUZ_INLINE Vec2 square_to_uniform_disk(Vec2 u) {
+  float a = 2.f * u.x - 1.f, b = 2.f * u.y - 1.f;
+  if (a == 0.f && b == 0.f) return {0.f, 0.f};
+  float r, phi;
+  if (a * a > b * b) {
+    r = a;
+    phi = (kPi / 4.f) * (b / a);
+  } else {
+    r = b;
+    phi = (kPi / 2.f) - (kPi / 4.f) * (a / b);
+  }
+  return {r * cosf(phi), r * sinf(phi)};
+}
+LUZ_INLINE float uniform_disk_pdf(Vec2 p) { return (p.x * p.x + p.y * p.y <= 1.f) ? kInvPi : 0.f; }
+
+// Cosine-weighted hemisphere by lifting the uniform disk (Malley's method).
+LUZ_INLINE Vec3 square_to_cosine_hemisphere(Vec2 u) {
+  Vec2 d = square_to_uniform_disk(u);
+  float z = safe_sqrt(1.f - d.x * d.x - d.y * d.y);
+  return {d.x, d.y, z};
+}
+LUZ_INLINE float cosine_hemisphere_pdf(Vec3 w) { return w.z > 0.f ? w.z * kInvPi : 0.f; }
+
+LUZ_INLINE Vec3 square_to_uniform_sphere(Vec2 u) {
+  float z = 1.f - 2.f * u.x;
+  float r = safe_sqrt(1.f - z * z);
+  float phi = 2.f * kPi * u.y;
+  return {r * cosf(phi), r * sinf(phi), z};
+}
+LUZ_INLINE float uniform_sphere_pdf() { return kInv4Pi; }
+
+// Uniform over the cone of directions with cos θ ≥ cos_max, around +z. The
+// cone is given by 1 - cos_max (exact even for tiny cones; see
+// cone_one_minus_cos) so narrow cones keep their precision.
+LUZ_INLINE Vec3 square_to_uniform_cone(Vec2 u, float one_minus_cos_max) {
+  float one_minus_z = u.x * one_minus_cos_max;
+  float z = 1.f - one_minus_z;
+  float r = safe_sqrt(one_minus_z * (2.f - one_minus_z));
+  float phi = 2.f * kPi * u.y;
+  return {r * cosf(phi), r * sinf(phi), z};
+}
+LUZ_INLINE float uniform_cone_pdf(float one_minus_cos_max) { return 1.f / (2.f * kPi * one_minus_cos_max); }
+// 1 - cos θmax for the cone subtended by a sphere with sin²θmax = s2.
+LUZ_INLINE float cone_one_minus_cos(float s2) {
+  return s2 < 1e-3f ? s2 * (0.5f + s2 * 0.125f) : 1.f - safe_sqrt(1.f - s2);
+}
+
+// Uniform on a triangle: barycentrics (b1, b2) of vertices 1 and 2.
+LUZ_INLINE Vec2 square_to_triangle_barycentrics(Vec2 u) {
+  float s = sqrtf(u.x);
+  return {1.f - s, u.y * s};
+}
+
+// Cosine-power lobe around +z (Lafortune & Willems 1994): pdf (n+1)/(2π) cos^n θ.
+LUZ_INLINE Vec3 square_to_cosine_power(Vec2 u, float n) {
+  float z = powf(u.x, 1.f / (n + 1.f));
+  float r = safe_sqrt(1.f - z * z);
+  float phi = 2.f * kPi * u.y;
+  return {r * cosf(phi), r * sinf(phi), z};
+}
+LUZ_INLINE float cosine_power_pdf(float cos_theta, float n) {
+  return cos_theta > 0.f ? (n + 1.f) * kInv2Pi * powf(cos_theta, n) : 0.f;
+}
+
+LUZ_INLINE float power_heuristic(float a, float b) {
+  float a2 = a * a, b2 = b * b;
+  if (!(a2 < kInfinity)) return 1.f;
+  return a2 > 0.f ? a2 / (a2 + b2) : 0.f;
+}
+
+}  // namespace luz

@@ -1,0 +1,139 @@
+#include "luz/scene/scene.h"
+
+#include <cmath>
+
+namespace luz {
+
+void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
+                     uint32_t material, const Color* emission) {
+  uint32_t base = uint32_t(positions.size());
+  // Keep normals either absent for all vertices or present for all.
+  if (!nrm.empty() && normals.empty() && !positions.empty()) {
+    normals.resize(positions.size());
+    // Earlier flat meshes get zero normals, which interaction() treats as flat.
+  }
+  positions.insert(positions.end(), pos.begin(), pos.end());
+  if (!nrm.empty() || !normals.empty()) {
+    if (nrm.empty())
+      normals.resize(positions.size(), Vec3{});
+    else
+      normals.insert(normals.end(), nrm.begin(), nrm.end());
+  }
+  for (size_t k = 0; k + 2 < idx.size(); k += 3) {
+    indices.push_back(base + idx[k]);
+    indices.push_back(base + idx[k + 1]);
+    indices.push_back(base + idx[k + 2]);
+    tri_material.push_back(material);
+    if (emission) {
+      Emitter e;
+      e.type = EmitterType::Triangle;
+      e.prim = uint32_t(tri_material.size() - 1);
+      e.radiance = *emission;
+      tri_emitter.push_back(int32_t(emitters.size()));
+      emitters.push_back(e);
+    } else {
+      tri_emitter.push_back(-1);
+    }
+  }
+}
+
+void Scene::add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip) {
+  Sphere s;
+  s.center = center;
+  s.radius = radius;
+  s.material = material;
+  s.flip_normals = flip;
+  if (emission) {
+    Emitter e;
+    e.type = EmitterType::Sphere;
+    e.prim = uint32_t(spheres.size());
+    e.radiance = *emission;
+    s.emitter = int32_t(emitters.size());
+    emitters.push_back(e);
+  }
+  spheres.push_back(s);
+}
+
+uint32_t Scene::add_material(const Bsdf& b) {
+  materials.push_back(b);
+  return uint32_t(materials.size() - 1);
+}
+
+void Scene::compile() {
+  Vec3 lo{kInfinity, kInfinity, kInfinity}, hi = -lo;
+  for (uint32_t k = 0; k < num_triangles(); ++k)
+    for (int j = 0; j < 3; ++j) {
+      Vec3 p = positions[indices[3 * k + j]];
+      lo = vmin(lo, p);
+      hi = vmax(hi, p);
+    }
+  for (const Sphere& s : spheres) {
+    Vec3 r{s.radius, s.radius, s.radius};
+    lo = vmin(lo, s.center - r);
+    hi = vmax(hi, s.center + r);
+  }
+  if (!(lo.x <= hi.x)) lo = hi = Vec3{};
+  bounds_min = lo;
+  bounds_max = hi;
+  float radius = std::max(0.5f * length(hi - lo), 1e-3f);
+
+  // Emitter selection in proportion to power: π · area · mean radiance.
+  SceneView v = view();
+  environment = -1;
+  std::vector<double> power(emitters.size());
+  for (size_t e = 0; e < emitters.size(); ++e) {
+    const Emitter& em = emitters[e];
+    double area = 0;
+    switch (em.type) {
+      case EmitterType::Triangle: area = v.triangle_area(em.prim); break;
+      case EmitterType::Sphere: area = 4.0 * M_PI * double(spheres[em.prim].radius) * spheres[em.prim].radius; break;
+      case EmitterType::Constant:
+        area = M_PI * double(radius) * radius;  // flux through the scene's bounding disk
+        environment = int32_t(e);
+        break;
+    }
+    power[e] = M_PI * area * std::max(0.0, double(average(em.radiance)));
+  }
+  double total = 0;
+  for (double p : power) total += p;
+  // With no emitting power at all, the CDF stays empty: no light sampling.
+  emitter_cdf.clear();
+  emitter_pmf.assign(emitters.size(), 0.f);
+  if (total > 0) {
+    emitter_cdf.assign(emitters.size(), 1.f);
+    double acc = 0;
+    for (size_t e = 0; e < emitters.size(); ++e) {
+      acc += power[e];
+      emitter_cdf[e] = float(acc / total);
+      emitter_pmf[e] = float(power[e] / total);
+    }
+    if (!emitters.empty()) emitter_cdf.back() = 1.f;
+    // A zero-power emitter must never be selected: its CDF step is empty and
+    // binary search skips it; that holds even for the last one.
+  }
+}
+
+SceneView Scene::view() const {
+  SceneView v;
+  v.positions = positions.data();
+  v.normals = normals.empty() ? nullptr : normals.data();
+  v.indices = indices.data();
+  v.tri_material = tri_material.data();
+  v.tri_emitter = tri_emitter.data();
+  v.num_triangles = num_triangles();
+  v.spheres = spheres.data();
+  v.num_spheres = uint32_t(spheres.size());
+  v.materials = materials.data();
+  v.num_materials = uint32_t(materials.size());
+  v.emitters = emitters.data();
+  v.emitter_cdf = emitter_cdf.data();
+  v.emitter_pmf = emitter_pmf.data();
+  v.num_emitters = emitter_cdf.empty() ? 0 : uint32_t(emitters.size());
+  v.environment = environment;
+  v.camera = camera;
+  v.bounds_center = (bounds_min + bounds_max) * 0.5f;
+  v.bounds_radius = std::max(0.5f * length(bounds_max - bounds_min), 1e-3f);
+  return v;
+}
+
+}  // namespace luz

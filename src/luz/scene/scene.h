@@ -1,0 +1,54 @@
+// The host scene: what the loaders fill in. compile() derives the emitter
+// table and hands out a SceneView over these arrays.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "luz/film/filter.h"
+#include "luz/integrator/path.h"
+#include "luz/sampling/sampler.h"
+#include "luz/scene/scene_view.h"
+
+namespace luz {
+
+struct RenderSettings {
+  SamplerType sampler = SamplerType::Independent;
+  uint32_t spp = 16;
+  uint64_t seed = 0;
+  IntegratorParams integrator;
+  FilterKind filter = FilterKind::Box;
+};
+
+struct Scene {
+  std::vector<Vec3> positions;
+  std::vector<Vec3> normals;  // empty, or one per position
+  std::vector<uint32_t> indices;
+  std::vector<uint32_t> tri_material;
+  std::vector<int32_t> tri_emitter;
+  std::vector<Sphere> spheres;
+  std::vector<Bsdf> materials;
+  std::vector<Emitter> emitters;
+  Camera camera;
+  RenderSettings settings;
+
+  // Filled by compile().
+  std::vector<float> emitter_cdf, emitter_pmf;
+  int32_t environment = -1;
+  Vec3 bounds_min{}, bounds_max{};
+
+  uint32_t num_triangles() const { return uint32_t(tri_material.size()); }
+
+  // Appends a triangle mesh (positions already in world space). normals may be
+  // empty. Emitter, if >= 0, is a template copied once per triangle.
+  void add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
+                uint32_t material, const Color* emission);
+  void add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip);
+  uint32_t add_material(const Bsdf& b);
+
+  // Bounds, emitter selection table; call after loading, before rendering.
+  void compile();
+  SceneView view() const;
+};
+
+}  // namespace luz

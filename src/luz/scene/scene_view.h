@@ -1,0 +1,210 @@
+// SceneView: the scene as plain arrays and indices, valid on the CPU or copied
+// to the GPU as is. Everything the integrator asks of the scene besides ray
+// queries lives here.
+#pragma once
+
+#include "luz/bsdf/bsdf.h"
+#include "luz/camera/camera.h"
+#include "luz/light/emitter.h"
+
+namespace luz {
+
+struct SceneView {
+  // Triangles: all meshes merged; triangle k uses indices[3k..3k+2].
+  const Vec3* positions = nullptr;
+  const Vec3* normals = nullptr;  // per vertex, or null: flat shading
+  const uint32_t* indices = nullptr;
+  const uint32_t* tri_material = nullptr;
+  const int32_t* tri_emitter = nullptr;  // -1: not emissive
+  uint32_t num_triangles = 0;
+
+  const Sphere* spheres = nullptr;
+  uint32_t num_spheres = 0;
+
+  const Bsdf* materials = nullptr;
+  uint32_t num_materials = 0;
+
+  // Emitters, chosen for next-event estimation in proportion to their power:
+  // emitter_cdf[k] = P(choose one of 0..k); emitter_pmf[k] = P(choose k).
+  const Emitter* emitters = nullptr;
+  const float* emitter_cdf = nullptr;
+  const float* emitter_pmf = nullptr;
+  uint32_t num_emitters = 0;
+  int32_t environment = -1;  // index of the constant environment emitter, or -1
+
+  Camera camera;
+  Vec3 bounds_center;
+  float bounds_radius = 1.f;
+
+  LUZ_INLINE void triangle(uint32_t k, Vec3& p0, Vec3& p1, Vec3& p2) const {
+    p0 = positions[indices[3 * k]];
+    p1 = positions[indices[3 * k + 1]];
+    p2 = positions[indices[3 * k + 2]];
+  }
+
+  LUZ_INLINE Interaction interaction(const Ray& ray, const Hit& hit) const {
+    Interaction it;
+    if (hit.kind == PrimKind::Triangle) {
+      Vec3 p0, p1, p2;
+      triangle(hit.prim, p0, p1, p2);
+      float b0 = 1.f - hit.u - hit.v;
+      it.p = p0 * b0 + p1 * hit.u + p2 * hit.v;
+      it.ng = normalize(cross(p1 - p0, p2 - p0));
+      it.ns = it.ng;
+      if (normals) {
+        Vec3 n = normals[indices[3 * hit.prim]] * b0 + normals[indices[3 * hit.prim + 1]] * hit.u +
+                 normals[indices[3 * hit.prim + 2]] * hit.v;
+        float len = length(n);
+        if (len > 0.f) {
+          n = n / len;
+          it.ns = dot(n, it.ng) < 0.f ? -n : n;
+        }
+      }
+      it.material = tri_material[hit.prim];
+      it.emitter = tri_emitter[hit.prim];
+    } else {
+      const Sphere& s = spheres[hit.prim];
+      Vec3 d = normalize(ray.o + ray.d * hit.t - s.center);
+      it.p = s.center + d * s.radius;  // re-projected onto the sphere
+      it.ng = s.flip_normals ? -d : d;
+      it.ns = it.ng;
+      it.material = s.material;
+      it.emitter = s.emitter;
+    }
+    return it;
+  }
+
+  // Radiance an emitter sends from point `it` toward direction w (away from it).
+  LUZ_INLINE Color emitted(const Interaction& it, Vec3 w) const {
+    if (it.emitter < 0 || dot(it.ng, w) <= 0.f) return {};
+    return emitters[it.emitter].radiance;
+  }
+
+  LUZ_INLINE Color environment_radiance(Vec3) const {
+    return environment >= 0 ? emitters[environment].radiance : Color{};
+  }
+
+  LUZ_INLINE float triangle_area(uint32_t k) const {
+    Vec3 p0, p1, p2;
+    triangle(k, p0, p1, p2);
+    return 0.5f * length(cross(p1 - p0, p2 - p0));
+  }
+
+  // Index of the emitter selected by u, by binary search of the CDF.
+  LUZ_INLINE uint32_t select_emitter(float u) const {
+    uint32_t lo = 0, hi = num_emitters - 1;
+    while (lo < hi) {
+      uint32_t mid = (lo + hi) / 2;
+      if (u < emitter_cdf[mid])
+        hi = mid;
+      else
+        lo = mid + 1;
+    }
+    return lo;
+  }
+
+  // Samples a point on emitter e as seen from `ref`. pdf is per solid angle.
+  LUZ_INLINE LightSample sample_emitter(uint32_t e, Vec3 ref, Vec2 u) const {
+    LightSample ls;
+    const Emitter& em = emitters[e];
+    switch (em.type) {
+      case EmitterType::Triangle: {
+        Vec3 p0, p1, p2;
+        triangle(em.prim, p0, p1, p2);
+        Vec2 b = square_to_triangle_barycentrics(u);
+        ls.p = p0 * (1.f - b.x - b.y) + p1 * b.x + p2 * b.y;
+        Vec3 c = cross(p1 - p0, p2 - p0);
+        float area = 0.5f * length(c);
+        ls.n = normalize(c);
+        Vec3 d = ls.p - ref;
+        float d2 = length_squared(d);
+        ls.dist = sqrtf(d2);
+        ls.wi = d / ls.dist;
+        float cos_l = -dot(ls.n, ls.wi);
+        if (cos_l <= 0.f || area <= 0.f) return ls;  // back of a one-sided emitter
+        ls.pdf = d2 / (cos_l * area);
+        ls.radiance = em.radiance;
+        return ls;
+      }
+      case EmitterType::Sphere: {
+        const Sphere& s = spheres[em.prim];
+        Vec3 to_c = s.center - ref;
+        float dc2 = length_squared(to_c);
+        float r2 = s.radius * s.radius;
+        if (dc2 <= r2 * 1.00001f) {
+          // Inside (or on) the sphere: uniform area sampling.
+          Vec3 d = square_to_uniform_sphere(u);
+          ls.p = s.center + d * s.radius;
+          ls.n = s.flip_normals ? -d : d;
+          Vec3 w = ls.p - ref;
+          float l2 = length_squared(w);
+          ls.dist = sqrtf(l2);
+          if (ls.dist <= 0.f) return ls;
+          ls.wi = w / ls.dist;
+          float cos_l = -dot(ls.n, ls.wi);
+          if (cos_l <= 0.f) return ls;
+          ls.pdf = l2 / (cos_l * 4.f * kPi * r2);
+          ls.radiance = em.radiance;
+          return ls;
+        }
+        // Outside: uniform in the cone the sphere subtends (pbrt-v4's Sphere::Sample).
+        float dc = sqrtf(dc2);
+        float sin2_max = r2 / dc2;
+        float omc = cone_one_minus_cos(sin2_max);
+        Frame fr = Frame::from_normal(to_c / dc);
+        Vec3 local = square_to_uniform_cone(u, omc);
+        ls.wi = normalize(fr.to_world(local));
+        float t = intersect_sphere(s.center, s.radius, ref, ls.wi, kInfinity);
+        if (t <= 0.f) {
+          // Grazing direction lost to rounding: take the tangent point.
+          t = dot(to_c, ls.wi);
+        }
+        Vec3 nrm = normalize(ref + ls.wi * t - s.center);
+        ls.p = s.center + nrm * s.radius;
+        ls.dist = length(ls.p - ref);
+        ls.n = s.flip_normals ? -nrm : nrm;
+        if (dot(ls.n, ls.wi) >= 0.f) return ls;  // flipped sphere seen from outside
+        ls.pdf = uniform_cone_pdf(omc);
+        ls.radiance = em.radiance;
+        return ls;
+      }
+      default: {
+        ls.wi = square_to_uniform_sphere(u);
+        ls.dist = kInfinity;
+        ls.pdf = uniform_sphere_pdf();
+        ls.radiance = em.radiance;
+        return ls;
+      }
+    }
+  }
+
+  // Solid-angle density with which sample_emitter(e, ref, ·) produces the
+  // direction toward light point `it` (at distance dist along unit wi).
+  LUZ_INLINE float emitter_pdf(uint32_t e, Vec3 ref, const Interaction& it, Vec3 wi, float dist) const {
+    const Emitter& em = emitters[e];
+    switch (em.type) {
+      case EmitterType::Triangle: {
+        float cos_l = -dot(it.ng, wi);
+        float area = triangle_area(em.prim);
+        if (cos_l <= 0.f || area <= 0.f) return 0.f;
+        return dist * dist / (cos_l * area);
+      }
+      case EmitterType::Sphere: {
+        const Sphere& s = spheres[em.prim];
+        float dc2 = length_squared(s.center - ref);
+        float r2 = s.radius * s.radius;
+        if (dc2 <= r2 * 1.00001f) {
+          float cos_l = -dot(it.ng, wi);
+          if (cos_l <= 0.f) return 0.f;
+          return dist * dist / (cos_l * 4.f * kPi * r2);
+        }
+        if (dot(it.ng, wi) >= 0.f) return 0.f;
+        return uniform_cone_pdf(cone_one_minus_cos(r2 / dc2));
+      }
+      default:
+        return uniform_sphere_pdf();
+    }
+  }
+};
+
+}  // namespace luz

@@ -1,0 +1,64 @@
+// Sampler properties: values in [0,1), a pure function of (seed, pixel,
+// index, dimension), and stratification where promised.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <set>
+#include <vector>
+
+#include "luz/sampling/sampler.h"
+
+using namespace luz;
+
+TEST(Sampler, PermuteIsAPermutation) {
+  for (uint32_t n : {1u, 2u, 3u, 7u, 16u, 100u, 257u}) {
+    std::set<uint32_t> seen;
+    for (uint32_t i = 0; i < n; ++i) seen.insert(permute(i, n, 0x1234567u * n));
+    EXPECT_EQ(seen.size(), n);
+    EXPECT_LT(*seen.rbegin(), n);
+  }
+}
+
+TEST(Sampler, PureFunctionOfCoordinates) {
+  for (SamplerType t : {SamplerType::Independent, SamplerType::Stratified, SamplerType::Sobol}) {
+    SamplerDesc d = make_sampler_desc(t, 16, 7);
+    Sampler a, b;
+    a.start(d, 3, 5, 9);
+    a.next_1d();
+    a.next_2d();
+    float va = a.next_1d();
+    b.start(d, 3, 5, 9);
+    b.dim = 2;
+    EXPECT_EQ(va, b.next_1d());
+  }
+}
+
+// Each dimension of a pixel's spp samples falls one per stratum (1D), for the
+// stratified and the Sobol sampler (spp a power of two).
+TEST(Sampler, OneSamplePerStratum) {
+  for (SamplerType t : {SamplerType::Stratified, SamplerType::Sobol}) {
+    const uint32_t spp = 64;
+    SamplerDesc d = make_sampler_desc(t, spp, 1);
+    for (uint32_t dim = 0; dim < 6; ++dim) {
+      std::vector<int> strata(spp, 0), sx(8, 0), sy(8, 0);
+      for (uint32_t i = 0; i < spp; ++i) {
+        Sampler s;
+        s.start(d, 10, 20, i);
+        s.dim = dim;
+        float v = s.next_1d();
+        ASSERT_GE(v, 0.f);
+        ASSERT_LT(v, 1.f);
+        strata[size_t(v * spp)]++;
+        s.dim = dim;
+        Vec2 w = s.next_2d();
+        sx[size_t(w.x * 8)]++;
+        sy[size_t(w.y * 8)]++;
+      }
+      for (int c : strata) EXPECT_EQ(c, 1) << "sampler " << int(t) << " dim " << dim;
+      for (int k = 0; k < 8; ++k) {
+        EXPECT_EQ(sx[k], 8);
+        EXPECT_EQ(sy[k], 8);
+      }
+    }
+  }
+}
