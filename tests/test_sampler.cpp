@@ -62,3 +62,20 @@ TEST(Sampler, OneSamplePerStratum) {
     }
   }
 }
+
+// The five-step Pascal transform equals the direction-number definition of
+// Sobol dimension 1: v_0 = 2^31, v_k = v_{k-1} ^ (v_{k-1} >> 1).
+TEST(Sampler, SobolDim1MatchesDirectionNumbers) {
+  for (uint32_t i : {0u, 1u, 2u, 3u, 5u, 12345u, 0x80000000u, 0xdeadbeefu, 0xffffffffu}) {
+    uint32_t r = 0, v = 1u << 31;
+    for (uint32_t j = i; j; j >>= 1, v ^= v >> 1)
+      if (j & 1u) r ^= v;
+    EXPECT_EQ(sobol_dim1(i), r) << i;
+  }
+  // Owen scrambling with seed 0 of the bit-reversed form is still a bijection of [0, 2^k) blocks:
+  for (uint32_t k = 1; k <= 8; ++k) {
+    std::set<uint32_t> top;
+    for (uint32_t i = 0; i < (1u << k); ++i) top.insert(owen_scramble(i, 0x9e3779b9u) >> k);
+    EXPECT_EQ(top.size(), 1u) << "shuffled indices of the first 2^k samples must share one aligned block";
+  }
+}

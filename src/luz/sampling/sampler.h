@@ -67,14 +67,28 @@ LUZ_INLINE uint32_t owen_scramble(uint32_t x, uint32_t seed) {
   return reverse_bits32(laine_karras_permutation(reverse_bits32(x), seed));
 }
 
-// The first two Sobol dimensions: van der Corput, and the dimension with
-// primitive polynomial x + 1 (direction numbers v_k = v_{k-1} ^ (v_{k-1} >> 1)).
+// The first two Sobol dimensions. Dimension 0 is van der Corput: reverse(i).
+// Dimension 1 (primitive polynomial x + 1) has the Pascal matrix mod 2 as its
+// generator: output bit (31 - j) is the XOR of the index bits k ⊇ j (Lucas).
+// That superset transform takes five shift-mask steps; the result is then
+// bit-reversed. sobol_pascal() returns the value before that reversal, so the
+// Owen-scrambled forms below need one reversal, not three.
+LUZ_INLINE uint32_t sobol_pascal(uint32_t x) {
+  x ^= (x >> 1) & 0x55555555u;
+  x ^= (x >> 2) & 0x33333333u;
+  x ^= (x >> 4) & 0x0f0f0f0fu;
+  x ^= (x >> 8) & 0x00ff00ffu;
+  x ^= (x >> 16) & 0x0000ffffu;
+  return x;
+}
 LUZ_INLINE uint32_t sobol_dim0(uint32_t i) { return reverse_bits32(i); }
-LUZ_INLINE uint32_t sobol_dim1(uint32_t i) {
-  uint32_t r = 0, v = 1u << 31;
-  for (; i; i >>= 1, v ^= v >> 1)
-    if (i & 1u) r ^= v;
-  return r;
+LUZ_INLINE uint32_t sobol_dim1(uint32_t i) { return reverse_bits32(sobol_pascal(i)); }
+// Owen-scrambled: owen_scramble(reverse(y), seed) = reverse(LK(y, seed)).
+LUZ_INLINE uint32_t scrambled_sobol_dim0(uint32_t i, uint32_t seed) {
+  return reverse_bits32(laine_karras_permutation(i, seed));
+}
+LUZ_INLINE uint32_t scrambled_sobol_dim1(uint32_t i, uint32_t seed) {
+  return reverse_bits32(laine_karras_permutation(sobol_pascal(i), seed));
 }
 
 // One sample's stream of numbers. Dimensions are requested in a fixed order by
@@ -84,21 +98,24 @@ struct Sampler {
   SamplerDesc desc;
   uint64_t pixel_key = 0;  // hash of (seed, pixel)
   uint32_t index = 0;      // sample index within the pixel
+  uint32_t index_reversed = 0;
   uint32_t dim = 0;
 
   LUZ_INLINE void start(const SamplerDesc& d, uint32_t px, uint32_t py, uint32_t sample_index) {
     desc = d;
     pixel_key = hash4(d.seed, px, py, 0x5a3c1e9dull);
     index = sample_index;
+    index_reversed = reverse_bits32(sample_index);
     dim = 0;
   }
 
-  // Padded Sobol: each dimension draws the pixel's spp points in its own random
-  // order (a hashed permutation within each pass of spp), so dimensions are
-  // decorrelated while each stays a stratified, Owen-scrambled set.
+  // Padded Sobol (Burley 2020, §4): each dimension visits the sequence in its
+  // own order, the sample index Owen-scrambled (nested uniform scramble). Output
+  // bit k of that scramble depends only on input bits ≥ k, so the first 2^m
+  // indices map onto one aligned block of 2^m Sobol points: a (0,m,2)-net, the
+  // stratification kept for power-of-two spp, while dimensions decorrelate.
   LUZ_INLINE uint32_t shuffle(uint32_t key) const {
-    uint32_t n = desc.spp, pass = index / n;
-    return pass * n + permute(index % n, n, key);
+    return reverse_bits32(laine_karras_permutation(index_reversed, key));  // = owen_scramble(index, key)
   }
 
   LUZ_INLINE float next_1d() {
@@ -114,7 +131,7 @@ struct Sampler {
       case SamplerType::Sobol: {
         uint64_t key = hash_combine(pixel_key, d);
         uint32_t i = shuffle(uint32_t(key));
-        return to_unit_float32(owen_scramble(sobol_dim0(i), uint32_t(key >> 32)));
+        return to_unit_float32(scrambled_sobol_dim0(i, uint32_t(key >> 32)));
       }
       default:
         return to_unit_float(hash_combine(hash_combine(pixel_key, index), d));
@@ -138,8 +155,8 @@ struct Sampler {
         uint64_t key = hash_combine(pixel_key, d ^ 0x80000000u);
         uint64_t key2 = mix64(key);
         uint32_t i = shuffle(uint32_t(key));
-        return {to_unit_float32(owen_scramble(sobol_dim0(i), uint32_t(key >> 32))),
-                to_unit_float32(owen_scramble(sobol_dim1(i), uint32_t(key2)))};
+        return {to_unit_float32(scrambled_sobol_dim0(i, uint32_t(key >> 32))),
+                to_unit_float32(scrambled_sobol_dim1(i, uint32_t(key2)))};
       }
       default: {
         uint64_t h = hash_combine(hash_combine(pixel_key, index), d ^ 0x80000000u);

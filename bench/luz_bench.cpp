@@ -1,0 +1,143 @@
+// luz_bench: path tracer throughput on a scene, and raw Embree throughput on
+// rays of the same kind (recorded from the path tracer itself: camera,
+// bounce and shadow rays in the proportions the integrator produces them),
+// measured side by side in one run.
+//
+//   luz_bench SCENE [-D name=value]... [--threads N] [--repeat K] [--label L]
+// Prints one human-readable block and, last, one markdown table row.
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "luz/accel/embree_tracer.h"
+#include "luz/device/cpu/render.h"
+#include "luz/io/error.h"
+#include "luz/io/scene_loader.h"
+
+namespace {
+
+struct RecordedRay {
+  luz::Ray ray;
+  bool shadow;
+};
+
+// A Tracer that answers through Embree and keeps a copy of every query.
+struct RecordingTracer {
+  luz::EmbreeTracer inner;
+  std::vector<RecordedRay>* out;
+  bool intersect(const luz::Ray& r, luz::Hit& h) const {
+    out->push_back({r, false});
+    return inner.intersect(r, h);
+  }
+  bool occluded(const luz::Ray& r) const {
+    out->push_back({r, true});
+    return inner.occluded(r);
+  }
+};
+
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string scene_path, label;
+  luz::Defines defines;
+  int threads = 0, repeat = 3;
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    if (a == "-D" && i + 1 < argc) {
+      std::string d = argv[++i];
+      size_t eq = d.find('=');
+      defines[d.substr(0, eq)] = eq == std::string::npos ? "" : d.substr(eq + 1);
+    } else if (a == "--threads" && i + 1 < argc) {
+      threads = std::atoi(argv[++i]);
+    } else if (a == "--repeat" && i + 1 < argc) {
+      repeat = std::max(1, std::atoi(argv[++i]));
+    } else if (a == "--label" && i + 1 < argc) {
+      label = argv[++i];
+    } else if (scene_path.empty()) {
+      scene_path = a;
+    } else {
+      std::fprintf(stderr, "luz_bench: unexpected argument '%s'\n", a.c_str());
+      return 2;
+    }
+  }
+  if (scene_path.empty()) {
+    std::fprintf(stderr, "usage: luz_bench SCENE [-D name=value]... [--threads N] [--repeat K] [--label L]\n");
+    return 2;
+  }
+  try {
+    luz::Scene scene = luz::load_scene(scene_path, defines);
+    if (label.empty()) label = scene_path;
+    const luz::Camera& cam = scene.camera;
+
+    // 1. The path tracer: best of `repeat` full renders.
+    luz::CpuRenderOptions opt;
+    opt.threads = threads;
+    double best = 1e30;
+    luz::RenderStats stats;
+    for (int k = 0; k < repeat; ++k) {
+      luz::RenderStats s;
+      luz::render_cpu(scene, opt, s);
+      if (s.seconds < best) best = s.seconds, stats = s;
+    }
+    double sps = stats.samples / stats.seconds, rps = stats.rays / stats.seconds;
+
+    // 2. Record the rays of one sample per pixel, then trace only those.
+    luz::EmbreeScene embree(scene);
+    luz::SceneView view = scene.view();
+    luz::SamplerDesc desc = luz::make_sampler_desc(scene.settings.sampler, scene.settings.spp, scene.settings.seed);
+    std::vector<RecordedRay> rays;
+    RecordingTracer rec{embree.tracer(), &rays};
+    for (int y = 0; y < cam.height; ++y)
+      for (int x = 0; x < cam.width; ++x)
+        for (uint32_t s = 0; s < std::min<uint32_t>(desc.spp, 4); ++s) {
+          luz::Sampler sampler;
+          sampler.start(desc, uint32_t(x), uint32_t(y), s);
+          luz::Vec2 off = luz::sample_filter(scene.settings.filter, sampler.next_2d());
+          luz::Ray r = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+          uint64_t n = 0;
+          luz::path_li(view, rec, r, sampler, scene.settings.integrator, n);
+        }
+    size_t shadow = size_t(std::count_if(rays.begin(), rays.end(), [](const RecordedRay& r) { return r.shadow; }));
+    luz::EmbreeTracer tracer = embree.tracer();
+    tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
+    double raw_best = 1e30;
+    for (int k = 0; k < repeat; ++k) {
+      std::vector<unsigned char> sink(rays.size());
+      double t0 = now();
+      arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+          for (size_t i = r.begin(); i != r.end(); ++i) {
+            luz::Hit h;
+            sink[i] = rays[i].shadow ? tracer.occluded(rays[i].ray) : tracer.intersect(rays[i].ray, h);
+          }
+        });
+      });
+      raw_best = std::min(raw_best, now() - t0);
+    }
+    double raw_rps = rays.size() / raw_best;
+
+    std::printf("scene        %s (%d×%d, %u spp, max_depth %d, %u threads)\n", label.c_str(), cam.width, cam.height,
+                scene.settings.spp, scene.settings.integrator.max_depth,
+                unsigned(threads > 0 ? threads : tbb::this_task_arena::max_concurrency()));
+    std::printf("path tracer  %.3f s  %.3f Msamples/s  %.2f Mrays/s  (%.2f rays/sample)\n", stats.seconds, sps * 1e-6,
+                rps * 1e-6, double(stats.rays) / stats.samples);
+    std::printf("raw embree   %.2f Mrays/s on %zu recorded rays (%.0f%% shadow)\n", raw_rps * 1e-6, rays.size(),
+                100.0 * shadow / rays.size());
+    std::printf("ratio        path tracer rays/s = %.2f × raw Embree rays/s\n", rps / raw_rps);
+    std::printf("| %s | %d×%d | %u | %.3f | %.2f | %.2f | %.2f |\n", label.c_str(), cam.width, cam.height,
+                scene.settings.spp, sps * 1e-6, rps * 1e-6, raw_rps * 1e-6, rps / raw_rps);
+    return 0;
+  } catch (const luz::InputError& e) {
+    std::fprintf(stderr, "luz_bench: error: %s\n", e.what());
+    return 2;
+  }
+}
