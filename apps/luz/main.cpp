@@ -7,6 +7,8 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <limits>
+#include <new>
 #include <map>
 #include <string>
 
@@ -19,18 +21,35 @@ namespace {
 
 constexpr int kExitBadInput = 2;
 
+// The outputs must be writable before hours of rendering are spent: a known
+// format, an existing directory, not a directory itself.
+void check_output(const std::string& out) {
+  namespace fs = std::filesystem;
+  if (!luz::is_supported_image_extension(out)) {
+    std::string e = fs::path(out).extension().string();
+    throw luz::InputError(out, 0,
+                          (e.empty() ? std::string("no image extension") : "unknown image format '" + e + "'") +
+                              " (use .exr, .pfm or .png)");
+  }
+  std::error_code ec;
+  fs::path parent = fs::path(out).parent_path();
+  if (!parent.empty() && !fs::is_directory(parent, ec))
+    throw luz::InputError(out, 0, "the directory '" + parent.string() + "' does not exist");
+  if (fs::is_directory(out, ec)) throw luz::InputError(out, 0, "is a directory");
+}
+
 int render(const std::string& scene_path, std::vector<std::string> outs, int spp, int threads, long long seed, int max_depth,
            const std::string& sampler, const std::string& integrator, const std::vector<std::string>& defs) {
   luz::Defines defines;
   for (const std::string& d : defs) {
     size_t eq = d.find('=');
     if (eq == std::string::npos || eq == 0) throw luz::InputError("-D " + d + ": expected name=value");
-    defines[d.substr(0, eq)] = d.substr(eq + 1);
+    std::string name = d.substr(0, eq);
+    if (defines.count(name)) throw luz::InputError("-D " + name + ": given twice");
+    defines[name] = d.substr(eq + 1);
   }
   if (outs.empty()) outs.push_back(std::filesystem::path(scene_path).stem().string() + ".exr");
-  for (const std::string& out : outs)
-    if (!luz::is_supported_image_extension(out))
-      throw luz::InputError(out + ": unknown image format (use .exr, .pfm or .png)");
+  for (const std::string& out : outs) check_output(out);
 
   luz::Scene scene = luz::load_scene(scene_path, defines);
   luz::RenderSettings& s = scene.settings;
@@ -78,9 +97,9 @@ int main(int argc, char** argv) {
   rc->add_option("scene", scene, "scene file (.xml or .obj)")->required();
   rc->add_option("-o,--output", outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
       ->allow_extra_args(false);
-  rc->add_option("--spp", spp, "samples per pixel (overrides the scene)")->check(CLI::PositiveNumber);
-  rc->add_option("--threads", threads, "worker threads (default: all cores)")->check(CLI::NonNegativeNumber);
-  rc->add_option("--seed", seed, "random seed")->check(CLI::NonNegativeNumber);
+  rc->add_option("--spp", spp, "samples per pixel (overrides the scene)")->check(CLI::Range(1, 1 << 24));
+  rc->add_option("--threads", threads, "worker threads (default: all cores)")->check(CLI::Range(0, 4096));
+  rc->add_option("--seed", seed, "random seed")->check(CLI::Range(0LL, std::numeric_limits<long long>::max()));
   rc->add_option("--max-depth", max_depth, "longest path, Mitsuba's max_depth (-1: unbounded)")
       ->check(CLI::Range(-1, 1 << 20) & !CLI::IsMember({0}));
   rc->add_option("--sampler", sampler, "sample generator")->check(CLI::IsMember({"independent", "stratified", "sobol"}));
@@ -89,16 +108,29 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    int code = app.exit(e);
-    return code == 0 ? 0 : kExitBadInput;
+    // --help (and the like) print to stdout and succeed; a real parse error is
+    // one line on stderr (CLI11's own printer adds a second "Run with --help").
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::fprintf(stderr, "luz: error: %s (see luz render --help)\n", luz::InputError::one_line(e.what()).c_str());
+    return kExitBadInput;
   }
+  // Every error is one line: "file:line: error: problem" when it concerns a
+  // file, "luz: error: problem" otherwise.
   try {
     return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, defines);
   } catch (const luz::InputError& e) {
-    std::fprintf(stderr, "luz: error: %s\n", e.what());
+    if (e.file().empty())
+      std::fprintf(stderr, "luz: error: %s\n", e.problem().c_str());
+    else if (e.line() > 0)
+      std::fprintf(stderr, "%s:%d: error: %s\n", e.file().c_str(), e.line(), e.problem().c_str());
+    else
+      std::fprintf(stderr, "%s: error: %s\n", e.file().c_str(), e.problem().c_str());
     return kExitBadInput;
+  } catch (const std::bad_alloc&) {
+    std::fprintf(stderr, "luz: error: out of memory\n");
+    return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "luz: error: %s\n", e.what());
+    std::fprintf(stderr, "luz: error: %s\n", luz::InputError::one_line(e.what()).c_str());
     return 1;
   }
 }

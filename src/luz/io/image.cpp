@@ -81,6 +81,8 @@ void write_image(const std::string& path, const Image& img) {
   std::string e = extension(path);
   if (!is_supported_image_extension(path))
     throw InputError(path, 0, "unknown image format '" + e + "' (use .exr, .pfm or .png)");
+  if (img.width <= 0 || img.height <= 0 || img.rgb.size() != size_t(img.width) * size_t(img.height) * 3)
+    throw InputError(path, 0, "image has no pixels or the wrong number of them");
   // Same directory, so the final rename is atomic.
   std::string tmp = path + ".part-" + std::to_string(::getpid()) + e;
   try {
@@ -93,9 +95,9 @@ void write_image(const std::string& path, const Image& img) {
   } catch (const InputError&) {
     std::remove(tmp.c_str());
     throw;
-  } catch (const std::exception& ex) {
+  } catch (const std::exception& ex) {  // OpenEXR (Iex) and std:: exceptions alike
     std::remove(tmp.c_str());
-    throw InputError(path, 0, ex.what());
+    throw InputError(path, 0, std::string("cannot write: ") + ex.what());
   }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
@@ -131,16 +133,23 @@ Image read_pfm(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, 0, "cannot open");
   std::string magic;
-  int w = 0, h = 0;
+  long long w = 0, h = 0;
   double scale = 0;
   in >> magic >> w >> h >> scale;
   in.get();
-  if (magic != "PF" || w <= 0 || h <= 0 || scale >= 0) throw InputError(path, 1, "not a little-endian RGB PFM");
+  if (!in || magic != "PF" || w <= 0 || h <= 0 || w > 65536 || h > 65536 || !(scale < 0))
+    throw InputError(path, 1, "not a little-endian RGB PFM");
+  // The header must promise no more pixels than the file holds.
+  std::streamoff start = in.tellg();
+  in.seekg(0, std::ios::end);
+  std::streamoff size = in.tellg();
+  if (start < 0 || size - start < std::streamoff(w * h * 3 * sizeof(float))) throw InputError(path, 0, "truncated PFM");
+  in.seekg(start);
   Image img;
-  img.width = w;
-  img.height = h;
+  img.width = int(w);
+  img.height = int(h);
   img.rgb.resize(size_t(w) * h * 3);
-  for (int y = h - 1; y >= 0; --y)
+  for (long long y = h - 1; y >= 0; --y)
     in.read(reinterpret_cast<char*>(img.rgb.data() + size_t(y) * w * 3), std::streamsize(w) * 3 * sizeof(float));
   if (!in) throw InputError(path, 0, "truncated PFM");
   return img;

@@ -9,7 +9,9 @@
 #include <charconv>
 #include <cmath>
 #include <filesystem>
+#include <cstring>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 
@@ -24,28 +26,47 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// The whole file, or an InputError that says why not (no std::filesystem or
+// stream exception escapes).
+std::string read_text_file(const std::string& path) {
+  std::error_code ec;
+  fs::file_status st = fs::status(path, ec);
+  if (ec || !fs::exists(st)) throw InputError(path, 0, "cannot open file: no such file");
+  if (fs::is_directory(st)) throw InputError(path, 0, "cannot open file: is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, 0, std::string("cannot open file: ") + std::strerror(errno));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw InputError(path, 0, "read error");
+  return ss.str();
+}
+
 class MitsubaParser {
  public:
   MitsubaParser(const std::string& path, const Defines& defines) : path_(path), defines_(defines) {}
 
   Scene parse() {
-    std::ifstream in(path_, std::ios::binary);
-    if (!in) throw InputError(path_, 0, "cannot open file");
-    std::stringstream ss;
-    ss << in.rdbuf();
-    text_ = ss.str();
+    text_ = read_text_file(path_);
     pugi::xml_parse_result res = doc_.load_buffer(text_.data(), text_.size(), pugi::parse_default);
     if (!res) throw InputError(path_, line_at(size_t(res.offset)), std::string("malformed XML: ") + res.description());
     pugi::xml_node root = doc_.child("scene");
-    if (!root) throw InputError(path_, 1, "root element must be <scene>");
+    if (!root) error(doc_.document_element(), "root element must be <scene>");
     for (pugi::xml_node n = doc_.first_child(); n; n = n.next_sibling())
       if (n.type() == pugi::node_element && std::string(n.name()) != "scene")
         error(n, "unexpected top-level element <" + std::string(n.name()) + ">");
 
     // Parameters: <default> values, overridden by the command line's -D.
     params_ = defines_;
+    std::set<std::string> declared_defaults;
     for (pugi::xml_node n : root.children("default")) {
-      std::string name = attr(n, "name"), value = attr(n, "value");
+      std::string name = attr(n, "name");
+      if (name.empty() || !std::all_of(name.begin(), name.end(), [](unsigned char c) { return std::isalnum(c) || c == '_'; }))
+        error(n, "<default> name '" + name + "' must be letters, digits and '_'");
+      if (!declared_defaults.insert(name).second) error(n, "<default name=\"" + name + "\"> given twice");
+      for (pugi::xml_attribute a : n.attributes())
+        if (std::string(a.name()) != "name" && std::string(a.name()) != "value")
+          error(n, "unknown attribute '" + std::string(a.name()) + "' of <default>");
+      std::string value = attr(n, "value");
       if (!params_.count(name)) params_[name] = value;
     }
     for (const auto& [name, value] : defines_) {
@@ -55,13 +76,16 @@ class MitsubaParser {
       if (!declared) throw InputError(path_, 0, "-D " + name + ": the scene declares no <default name=\"" + name + "\">");
     }
 
-    bool have_sensor = false;
+    bool have_sensor = false, have_integrator = false;
     for (pugi::xml_node n : root.children()) {
       if (n.type() != pugi::node_element) continue;
       std::string tag = n.name();
       if (tag == "default") continue;
-      if (tag == "integrator") parse_integrator(n);
-      else if (tag == "sensor") {
+      if (tag == "integrator") {
+        if (have_integrator) error(n, "only one <integrator> is supported");
+        parse_integrator(n);
+        have_integrator = true;
+      } else if (tag == "sensor") {
         if (have_sensor) error(n, "only one <sensor> is supported");
         parse_sensor(n);
         have_sensor = true;
@@ -124,8 +148,13 @@ class MitsubaParser {
     if (b < e && *b == '+') ++b;
     double v = 0;
     auto r = std::from_chars(b, e, v);
+    if (r.ec == std::errc::result_out_of_range && r.ptr == e && b != e)
+      error(n, "'" + s + "' is not a finite number (out of range)");
     if (r.ec != std::errc() || r.ptr != e || b == e) error(n, "'" + s + "' is not a number");
     if (!std::isfinite(v)) error(n, "'" + s + "' is not a finite number");
+    // Everything ends up in 32-bit floats: a larger magnitude would become inf.
+    if (std::fabs(v) > double(std::numeric_limits<float>::max()))
+      error(n, "'" + s + "' is out of the range of a 32-bit float");
     return v;
   }
   std::vector<double> numbers(pugi::xml_node n, const std::string& s) const {
@@ -327,6 +356,14 @@ class MitsubaParser {
 
     int width = 768, height = 576;
     Camera& cam = scene_.camera;
+    // Mitsuba's defaults when the sensor names no sampler or film: an
+    // independent sampler with 4 samples, a 768×576 hdrfilm, a gaussian rfilter.
+    scene_.settings.sampler = SamplerType::Independent;
+    scene_.settings.spp = 4;
+    scene_.settings.filter = FilterKind::Gaussian;
+    if (std::distance(n.children("sampler").begin(), n.children("sampler").end()) > 1)
+      error(n, "a sensor takes one <sampler>");
+    if (std::distance(n.children("film").begin(), n.children("film").end()) > 1) error(n, "a sensor takes one <film>");
     for (pugi::xml_node c : n.children("sampler")) parse_sampler(c);
     for (pugi::xml_node c : n.children("film")) parse_film(c, width, height);
     cam.width = width;
@@ -382,6 +419,8 @@ class MitsubaParser {
     p.get_bool("banner", false);
     p.get_bool("high_quality_edges", false);
     p.check_all_used();
+    if (std::distance(n.children("rfilter").begin(), n.children("rfilter").end()) > 1)
+      error(n, "a film takes one <rfilter>");
     for (pugi::xml_node r : n.children("rfilter")) {
       std::string ft = attr(r, "type");
       check_children(r, {});
@@ -417,6 +456,8 @@ class MitsubaParser {
         if (c.type() == pugi::node_element && (std::string(c.name()) == "bsdf" || std::string(c.name()) == "ref"))
           inner.push_back(c);
       if (inner.size() != 1) error(n, "twosided needs exactly one nested bsdf");
+      if (std::string(inner[0].name()) == "bsdf" && attr(inner[0], "type") == "twosided")
+        error(inner[0], "twosided cannot wrap another twosided");
       Bsdf b = std::string(inner[0].name()) == "ref" ? scene_.materials[resolve_ref(inner[0])]
                                                      : parse_bsdf_value(inner[0]);
       b.two_sided = true;
@@ -470,6 +511,8 @@ class MitsubaParser {
 
   void parse_shape(pugi::xml_node n) {
     std::string type = attr(n, "type");
+    if (type != "sphere" && type != "rectangle" && type != "cube" && type != "obj")
+      error(n, "unknown shape '" + type + "' (supported: obj, rectangle, cube, sphere)");
     check_children(n, {"bsdf", "ref", "emitter"});
     Props p(this, n);
     Matrix4 to_world = p.get_transform("to_world");
@@ -547,6 +590,12 @@ class MitsubaParser {
       bool face_normals = p.get_bool("face_normals", false);
       p.check_all_used();
       fs::path full = fs::path(path_).parent_path() / file;
+      std::error_code ec;
+      if (!fs::is_regular_file(full, ec)) {
+        bool exists = fs::exists(full, ec);
+        error(n, "cannot open OBJ file '" + full.string() + "': " +
+                     (exists ? "not a regular file" : "no such file"));
+      }
       ObjMesh mesh = read_obj(full.string(), false);
       pos = std::move(mesh.positions);
       if (!face_normals) nrm = std::move(mesh.normals);
@@ -644,6 +693,8 @@ Scene load_obj_scene(const std::string& path) {
 }
 
 Scene load_scene(const std::string& path, const Defines& defines) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError(path, 0, "cannot open file: no such file");
   std::string e = lower_extension(path);
   if (e == ".xml") return load_mitsuba(path, defines);
   if (e == ".obj") {

@@ -2,11 +2,15 @@
 
 #include <tiny_obj_loader.h>
 
+#include <charconv>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <utility>
+#include <vector>
 
 #include "luz/io/error.h"
 
@@ -14,23 +18,136 @@ namespace luz {
 
 namespace {
 
-// Line of the k-th line starting with `tag` ("v", "vn"), for error messages.
-int line_of_element(const std::string& path, const char* tag, size_t k) {
-  std::ifstream in(path);
-  std::string line, first;
-  size_t seen = 0;
-  for (int n = 1; std::getline(in, line); ++n) {
-    std::istringstream ss(line);
-    if (ss >> first && first == tag && seen++ == k) return n;
+// tinyobjloader is lenient where Luz must not be: a coordinate it cannot parse
+// ("nan", "abc") silently becomes 0, and face indices are not range-checked
+// (an index past the end would read out of bounds). So the file is checked
+// first, line by line, and every problem is reported with its line.
+class ObjChecker {
+ public:
+  ObjChecker(const std::string& path, const std::string& text) : path_(path), text_(text) {}
+
+  void check() {
+    // Pass 1 counts the vertex data, so positive face indices may refer ahead;
+    // pass 2 checks numbers and indices (negative ones are relative to the
+    // vertices read so far).
+    for (int pass = 0; pass < 2; ++pass) {
+      size_t v = 0, vt = 0, vn = 0;
+      int line_no = 0;
+      for (size_t pos = 0; pos < text_.size();) {
+        size_t eol = text_.find('\n', pos);
+        if (eol == std::string::npos) eol = text_.size();
+        std::string line = text_.substr(pos, eol - pos);
+        pos = eol + 1;
+        ++line_no;
+        size_t hash = line.find('#');
+        if (hash != std::string::npos) line.resize(hash);
+        std::vector<std::string> tok = split(line);
+        if (tok.empty()) continue;
+        const std::string& key = tok[0];
+        if (key == "v" || key == "vn" || key == "vt") {
+          size_t& count = key == "v" ? v : key == "vn" ? vn : vt;
+          ++count;
+          if (pass == 0) continue;
+          size_t need = key == "vt" ? 1 : 3;
+          if (tok.size() - 1 < need)
+            throw InputError(path_, line_no, "'" + key + "' needs " + std::to_string(need) + " numbers");
+          for (size_t k = 1; k < tok.size(); ++k) number(tok[k], line_no, key);
+        } else if (key == "f" && pass == 1) {
+          if (tok.size() < 4) throw InputError(path_, line_no, "a face needs at least 3 vertices");
+          for (size_t k = 1; k < tok.size(); ++k) face_vertex(tok[k], line_no, v, vt, vn);
+        }
+      }
+      if (pass == 0) total_v_ = v, total_vt_ = vt, total_vn_ = vn;
+    }
   }
-  return 0;
+
+ private:
+  static std::vector<std::string> split(const std::string& line) {
+    std::vector<std::string> out;
+    std::string cur;
+    for (char c : line) {
+      if (c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f') {
+        if (!cur.empty()) out.push_back(std::move(cur));
+        cur.clear();
+      } else {
+        cur += c;
+      }
+    }
+    if (!cur.empty()) out.push_back(std::move(cur));
+    return out;
+  }
+
+  void number(const std::string& t, int line_no, const std::string& key) const {
+    const char* b = t.data();
+    const char* e = b + t.size();
+    if (b < e && *b == '+') ++b;
+    float f = 0;
+    auto r = std::from_chars(b, e, f);
+    if (r.ptr != e || b == e || (r.ec != std::errc() && r.ec != std::errc::result_out_of_range))
+      throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a number");
+    if (r.ec == std::errc::result_out_of_range) {
+      // Out of range is an overflow, or an underflow (harmless: it reads as 0).
+      double d = std::strtod(std::string(b, e).c_str(), nullptr);
+      if (std::fabs(d) > 1.0)
+        throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a finite number (out of range)");
+    } else if (!std::isfinite(f)) {
+      throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a finite number");
+    }
+  }
+
+  // "v", "v/t", "v//n" or "v/t/n": each index non-zero and in range.
+  void face_vertex(const std::string& t, int line_no, size_t v, size_t vt, size_t vn) const {
+    std::string part[3];
+    int np = 0;
+    for (char c : t) {
+      if (c == '/') {
+        if (++np > 2) throw InputError(path_, line_no, "face vertex '" + t + "' is malformed");
+      } else {
+        part[np] += c;
+      }
+    }
+    const char* what[3] = {"vertex", "texture coordinate", "normal"};
+    size_t so_far[3] = {v, vt, vn}, total[3] = {total_v_, total_vt_, total_vn_};
+    for (int k = 0; k <= np; ++k) {
+      if (part[k].empty()) {
+        if (k == 0) throw InputError(path_, line_no, "face vertex '" + t + "' lacks a vertex index");
+        continue;
+      }
+      long long i = 0;
+      const char* b = part[k].data();
+      const char* e = b + part[k].size();
+      auto r = std::from_chars(b, e, i);
+      if (r.ec != std::errc() || r.ptr != e)
+        throw InputError(path_, line_no, "face vertex '" + t + "': '" + part[k] + "' is not an index");
+      bool ok = i > 0 ? size_t(i) <= total[k] : i < 0 && size_t(-i) <= so_far[k];
+      if (!ok)
+        throw InputError(path_, line_no,
+                         std::string(what[k]) + " index " + part[k] + " is out of range (" +
+                             std::to_string(i > 0 ? total[k] : so_far[k]) + " defined)");
+    }
+  }
+
+  const std::string& path_;
+  const std::string& text_;
+  size_t total_v_ = 0, total_vt_ = 0, total_vn_ = 0;
+};
+
+std::string read_text(const std::string& path) {
+  std::error_code ec;
+  std::filesystem::file_status st = std::filesystem::status(path, ec);
+  if (ec || !std::filesystem::exists(st)) throw InputError(path, 0, "cannot open file: no such file");
+  if (std::filesystem::is_directory(st)) throw InputError(path, 0, "cannot open file: is a directory");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, 0, "cannot open file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
 }
 
 }  // namespace
 
 ObjMesh read_obj(const std::string& path, bool with_materials) {
-  std::ifstream probe(path);
-  if (!probe) throw InputError(path, 0, "cannot open file");
+  ObjChecker(path, read_text(path)).check();
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
@@ -44,12 +161,20 @@ ObjMesh read_obj(const std::string& path, bool with_materials) {
     throw InputError(path, 0, "malformed OBJ: " + e);
   }
   const tinyobj::attrib_t& attrib = reader.GetAttrib();
-  for (size_t k = 0; k < attrib.vertices.size(); ++k)
-    if (!std::isfinite(attrib.vertices[k]))
-      throw InputError(path, line_of_element(path, "v", k / 3), "vertex coordinate is not a finite number");
-  for (size_t k = 0; k < attrib.normals.size(); ++k)
-    if (!std::isfinite(attrib.normals[k]))
-      throw InputError(path, line_of_element(path, "vn", k / 3), "normal is not a finite number");
+  // Checked above already; kept as a guard so no bad value or index gets past.
+  for (float x : attrib.vertices)
+    if (!std::isfinite(x)) throw InputError(path, 0, "vertex coordinate is not a finite number");
+  for (float x : attrib.normals)
+    if (!std::isfinite(x)) throw InputError(path, 0, "normal is not a finite number");
+  const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3;
+  for (const tinyobj::shape_t& shape : reader.GetShapes()) {
+    if (shape.mesh.indices.size() != 3 * shape.mesh.num_face_vertices.size())
+      throw InputError(path, 0, "face triangulation failed");
+    for (const tinyobj::index_t& idx : shape.mesh.indices)
+      if (idx.vertex_index < 0 || size_t(idx.vertex_index) >= nv ||
+          (idx.normal_index >= 0 && size_t(idx.normal_index) >= nn))
+        throw InputError(path, 0, "face index out of range");
+  }
 
   ObjMesh mesh;
   if (with_materials)

@@ -1,0 +1,521 @@
+// The luz command line on bad input and on good input. Each test runs the
+// real binary (LUZ_BINARY) in a fresh temporary directory and checks, for bad
+// input: exit status 2 (never a signal), exactly one line on stderr naming the
+// file, the line (where the input has lines) and the problem, and no output
+// image (nor a temporary .part file) left behind. Good input: tiny renders to
+// every image format, -D overrides, the bundled OBJ and Mitsuba scenes.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <stdlib.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "luz/io/image.h"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  bool exited = false;  // false: killed by a signal (a crash)
+  int status = -1;      // exit status when exited
+  int signal = 0;
+  std::string out, err;
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+void write_file(const fs::path& p, const std::string& text) {
+  std::ofstream out(p, std::ios::binary);
+  out << text;
+  ASSERT_TRUE(out.good()) << p;
+}
+
+// 1-based line of the first occurrence of needle in text.
+int line_of(const std::string& text, const std::string& needle) {
+  size_t at = text.find(needle);
+  if (at == std::string::npos) return -1;
+  return 1 + int(std::count(text.begin(), text.begin() + std::ptrdiff_t(at), '\n'));
+}
+
+std::string replace(std::string s, const std::string& from, const std::string& to) {
+  size_t at = s.find(from);
+  EXPECT_NE(at, std::string::npos) << "test bug: '" << from << "' not in the scene";
+  if (at != std::string::npos) s.replace(at, from.size(), to);
+  return s;
+}
+
+// A tiny valid scene: an emitting rectangle above a diffuse floor, seen from
+// above; 8×6 pixels, 2 samples. Markers in it are replaced by the bad cases.
+const char* kScene = R"(<?xml version="1.0"?>
+<scene version="3.0.0">
+  <default name="w" value="8"/>
+  <default name="h" value="6"/>
+  <integrator type="path">
+    <integer name="max_depth" value="4"/>
+  </integrator>
+  <sensor type="perspective">
+    <float name="fov" value="60"/>
+    <transform name="to_world">
+      <lookat origin="0, 3, 0" target="0, 0, 0" up="0, 0, 1"/>
+    </transform>
+    <sampler type="independent">
+      <integer name="sample_count" value="2"/>
+    </sampler>
+    <film type="hdrfilm">
+      <integer name="width" value="$w"/>
+      <integer name="height" value="$h"/>
+      <rfilter type="box"/>
+    </film>
+  </sensor>
+  <bsdf type="diffuse" id="floor">
+    <rgb name="reflectance" value="0.5, 0.5, 0.5"/>
+  </bsdf>
+  <shape type="rectangle">
+    <transform name="to_world">
+      <rotate x="1" angle="-90"/>
+      <scale value="2"/>
+    </transform>
+    <ref id="floor"/>
+  </shape>
+  <shape type="rectangle">
+    <transform name="to_world">
+      <scale value="0.5"/>
+      <rotate x="1" angle="90"/>
+      <translate y="2"/>
+    </transform>
+    <emitter type="area">
+      <rgb name="radiance" value="4, 4, 4"/>
+    </emitter>
+  </shape>
+</scene>
+)";
+
+class Cli : public ::testing::Test {
+ protected:
+  fs::path dir;
+
+  void SetUp() override {
+    std::string tmpl = (fs::temp_directory_path() / "luz_test_cli_XXXXXX").string();
+    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
+    dir = tmpl;
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+
+  // Runs luz with args in dir; stdout and stderr go to files there, removed after.
+  Result run(const std::vector<std::string>& args) {
+    fs::path out_file = dir / ".stdout", err_file = dir / ".stderr";
+    pid_t pid = ::fork();
+    if (pid == 0) {
+      if (::chdir(dir.c_str()) != 0) ::_exit(127);
+      int o = ::open(out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      int e = ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      if (o < 0 || e < 0) ::_exit(127);
+      ::dup2(o, 1);
+      ::dup2(e, 2);
+      std::vector<char*> argv;
+      std::string bin = LUZ_BINARY;
+      argv.push_back(bin.data());
+      std::vector<std::string> copy = args;
+      for (std::string& a : copy) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      ::execv(bin.c_str(), argv.data());
+      ::_exit(127);
+    }
+    Result r;
+    int st = 0;
+    EXPECT_EQ(::waitpid(pid, &st, 0), pid);
+    r.exited = WIFEXITED(st);
+    r.status = r.exited ? WEXITSTATUS(st) : -1;
+    r.signal = WIFSIGNALED(st) ? WTERMSIG(st) : 0;
+    r.out = slurp(out_file);
+    r.err = slurp(err_file);
+    fs::remove(out_file);
+    fs::remove(err_file);
+    return r;
+  }
+
+  std::set<std::string> listing() const {
+    std::set<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir)) names.insert(e.path().filename().string());
+    return names;
+  }
+
+  // Runs luz on bad input and checks the contract: status 2, one stderr line
+  // that contains `file` (and ":line:" when line > 0) and `problem`, nothing written.
+  void expect_bad(const std::vector<std::string>& args, const std::string& file, int line, const std::string& problem) {
+    std::set<std::string> before = listing();
+    Result r = run(args);
+    std::string cmd;
+    for (const std::string& a : args) cmd += " " + a;
+    SCOPED_TRACE("luz" + cmd + "\nstderr: " + r.err);
+    ASSERT_TRUE(r.exited) << "killed by signal " << r.signal;
+    EXPECT_EQ(r.status, 2);
+    ASSERT_FALSE(r.err.empty());
+    EXPECT_EQ(r.err.back(), '\n');
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "stderr must be exactly one line";
+    std::string msg = r.err.substr(0, r.err.size() - 1);
+    if (!file.empty()) {
+      EXPECT_EQ(msg.rfind(file, 0), 0u) << "the message must start with the file";
+      if (line > 0) {
+        EXPECT_EQ(msg.rfind(file + ":" + std::to_string(line) + ": error: ", 0), 0u) << "expected line " << line;
+      } else if (line < 0) {  // some line, no matter which
+        size_t after = file.size() + 1, digits = 0;
+        while (after + digits < msg.size() && std::isdigit((unsigned char)msg[after + digits])) ++digits;
+        EXPECT_TRUE(msg.compare(file.size(), 1, ":") == 0 && digits > 0 &&
+                    msg.compare(after + digits, 9, ": error: ") == 0)
+            << "expected file:line: error:";
+      } else {
+        EXPECT_EQ(msg.rfind(file + ": error: ", 0), 0u);
+      }
+    } else {
+      EXPECT_EQ(msg.rfind("luz: error: ", 0), 0u);
+    }
+    EXPECT_NE(msg.find(problem), std::string::npos) << "expected the problem '" << problem << "'";
+    EXPECT_EQ(listing(), before) << "nothing may be written on bad input";
+    last_message = msg;
+  }
+
+  // Writes scene text as name and expects it to be refused at the line of marker.
+  void expect_bad_scene(const std::string& text, const std::string& marker, const std::string& problem,
+                        const std::string& name = "scene.xml") {
+    write_file(dir / name, text);
+    // No marker: the problem is somewhere in the file, any line will do.
+    int line = marker.empty() ? -1 : line_of(text, marker);
+    ASSERT_TRUE(marker.empty() || line != -1) << "test bug: marker '" << marker << "' not found";
+    expect_bad({"render", name, "-o", "out.exr", "--threads", "1"}, name, line, problem);
+  }
+
+  std::string last_message;
+};
+
+// ---------------------------------------------------------------- bad input
+
+TEST_F(Cli, MissingSceneFile) {
+  expect_bad({"render", "missing.xml", "-o", "out.exr"}, "missing.xml", 0, "cannot open file");
+  expect_bad({"render", "missing.obj", "-o", "out.exr"}, "missing.obj", 0, "cannot open file");
+}
+
+TEST_F(Cli, SceneIsADirectory) {
+  fs::create_directory(dir / "d.xml");
+  expect_bad({"render", "d.xml", "-o", "out.exr"}, "d.xml", 0, "directory");
+}
+
+TEST_F(Cli, UnknownSceneFormat) {
+  write_file(dir / "scene.ply", "ply\n");
+  expect_bad({"render", "scene.ply", "-o", "out.exr"}, "scene.ply", 0, "unknown scene format");
+}
+
+TEST_F(Cli, MalformedXmlUnclosedTag) {
+  std::string text = replace(kScene, "  </shape>\n</scene>", "\n</scene>");  // the last <shape> never closes
+  expect_bad_scene(text, "</scene>", "malformed XML");
+}
+
+TEST_F(Cli, MalformedXmlTruncated) {
+  std::string text = kScene;
+  text.resize(text.find("<bsdf type=\"diffuse\" id=\"floor\">") + 10);  // cut inside a tag, no newline after
+  int last = int(std::count(text.begin(), text.end(), '\n')) + 1;
+  write_file(dir / "scene.xml", text);
+  expect_bad({"render", "scene.xml", "-o", "out.exr"}, "scene.xml", last, "malformed XML");
+}
+
+TEST_F(Cli, MalformedXmlGarbage) {
+  expect_bad_scene("this is not a scene\n", "", "");
+  EXPECT_NE(last_message.find("malformed XML"), std::string::npos);
+  expect_bad_scene(std::string("\x7f" "ELF\x01\x02\x00\x00<<<>>>&&&\n", 17), "", "malformed XML");
+  expect_bad_scene("", "", "malformed XML");
+  expect_bad_scene("<?xml version=\"1.0\"?>\n<notascene/>\n", "<notascene", "root element must be <scene>");
+}
+
+TEST_F(Cli, UnknownPlugins) {
+  expect_bad_scene(replace(kScene, "<bsdf type=\"diffuse\" id=\"floor\">", "<bsdf type=\"foo\" id=\"floor\">"),
+                   "<bsdf type=\"foo\"", "unknown bsdf 'foo'");
+  expect_bad_scene(replace(kScene, "<shape type=\"rectangle\">", "<shape type=\"ply\">"), "<shape type=\"ply\">",
+                   "unknown shape 'ply'");
+  expect_bad_scene(replace(kScene, "<integrator type=\"path\">", "<integrator type=\"volpath\">"),
+                   "<integrator type=\"volpath\">", "unknown integrator 'volpath'");
+  expect_bad_scene(replace(kScene, "<rfilter type=\"box\"/>", "<rfilter type=\"lanczos\"/>"), "<rfilter",
+                   "unknown rfilter 'lanczos'");
+  expect_bad_scene(replace(kScene, "<sampler type=\"independent\">", "<sampler type=\"multijitter\">"), "<sampler",
+                   "unknown sampler 'multijitter'");
+  expect_bad_scene(replace(kScene, "<emitter type=\"area\">", "<emitter type=\"point\">"), "<emitter",
+                   "unknown shape emitter 'point'");
+  expect_bad_scene(replace(kScene, "<sensor type=\"perspective\">", "<sensor type=\"thinlens\">"), "<sensor",
+                   "unknown sensor 'thinlens'");
+  expect_bad_scene(replace(kScene, "  <bsdf type=\"diffuse\" id=\"floor\">", "  <medium type=\"homogeneous\"/>\n  <bsdf type=\"diffuse\" id=\"floor\">"),
+                   "<medium", "unsupported element <medium>");
+}
+
+TEST_F(Cli, UnknownParameter) {
+  std::string text = replace(kScene, "<rgb name=\"reflectance\" value=\"0.5, 0.5, 0.5\"/>",
+                             "<rgb name=\"reflectance\" value=\"0.5, 0.5, 0.5\"/>\n    <float name=\"bogus\" value=\"1\"/>");
+  expect_bad_scene(text, "bogus", "unknown parameter 'bogus'");
+  expect_bad_scene(replace(kScene, "<integer name=\"max_depth\" value=\"4\"/>", "<integer name=\"maxdepth\" value=\"4\"/>"),
+                   "maxdepth", "unknown parameter 'maxdepth'");
+}
+
+TEST_F(Cli, WrongParameterType) {
+  expect_bad_scene(replace(kScene, "<rgb name=\"reflectance\" value=\"0.5, 0.5, 0.5\"/>",
+                           "<string name=\"reflectance\" value=\"red\"/>"),
+                   "<string name=\"reflectance\"", "wrong type <string>");
+  expect_bad_scene(replace(kScene, "<integer name=\"max_depth\" value=\"4\"/>", "<float name=\"max_depth\" value=\"4\"/>"),
+                   "<float name=\"max_depth\"", "wrong type <float>");
+  expect_bad_scene(replace(kScene, "<integer name=\"max_depth\" value=\"4\"/>", "<integer name=\"max_depth\" value=\"4.5\"/>"),
+                   "max_depth", "must be an integer");
+  expect_bad_scene(replace(kScene, "<float name=\"fov\" value=\"60\"/>", "<float name=\"fov\" value=\"sixty\"/>"),
+                   "fov", "'sixty' is not a number");
+}
+
+TEST_F(Cli, PhongCreatingEnergy) {
+  std::string text = replace(kScene, "<bsdf type=\"diffuse\" id=\"floor\">\n    <rgb name=\"reflectance\" value=\"0.5, 0.5, 0.5\"/>",
+                             "<bsdf type=\"phong\" id=\"floor\">\n    <rgb name=\"diffuse_reflectance\" value=\"0.7, 0.5, 0.5\"/>\n"
+                             "    <rgb name=\"specular_reflectance\" value=\"0.4\"/>");
+  expect_bad_scene(text, "<bsdf type=\"phong\"", "diffuse_reflectance + specular_reflectance > 1");
+}
+
+TEST_F(Cli, NonFiniteNumbers) {
+  for (const char* bad : {"nan", "NaN", "inf", "-inf", "1e999", "1e39"}) {
+    SCOPED_TRACE(bad);
+    expect_bad_scene(replace(kScene, "<float name=\"fov\" value=\"60\"/>", std::string("<float name=\"fov\" value=\"") + bad + "\"/>"),
+                     "<float name=\"fov\"", "'" + std::string(bad) + "'");
+    expect_bad_scene(replace(kScene, "value=\"4, 4, 4\"", std::string("value=\"4, ") + bad + ", 4\""), "name=\"radiance\"",
+                     "'" + std::string(bad) + "'");
+    expect_bad_scene(replace(kScene, "<scale value=\"2\"/>", std::string("<matrix value=\"1 0 0 0 0 1 0 ") + bad +
+                                                                 " 0 0 1 0 0 0 0 1\"/>"),
+                     "<matrix", "'" + std::string(bad) + "'");
+  }
+  EXPECT_NE(last_message.find("32-bit float"), std::string::npos) << last_message;  // 1e39: finite, but not as a float
+}
+
+// An OBJ referenced by a scene; its problems are reported in the OBJ's own lines.
+class CliObj : public Cli {
+ protected:
+  std::string scene_with_obj() {
+    return replace(kScene, "<shape type=\"rectangle\">\n    <transform name=\"to_world\">\n      <rotate x=\"1\" angle=\"-90\"/>\n      <scale value=\"2\"/>\n    </transform>",
+                   "<shape type=\"obj\">\n    <string name=\"filename\" value=\"mesh.obj\"/>");
+  }
+  void expect_bad_obj(const std::string& obj, const std::string& marker, const std::string& problem) {
+    write_file(dir / "scene.xml", scene_with_obj());
+    write_file(dir / "mesh.obj", obj);
+    int line = marker.empty() ? 0 : line_of(obj, marker);  // no marker: a problem of the whole file
+    ASSERT_NE(line, -1);
+    expect_bad({"render", "scene.xml", "-o", "out.exr", "--threads", "1"}, "mesh.obj", line, problem);
+  }
+};
+
+TEST_F(CliObj, GoodObjRenders) {
+  write_file(dir / "scene.xml", scene_with_obj());
+  write_file(dir / "mesh.obj", "# floor\nv -2 0 -2\nv 2 0 -2\nv 2 0 2\nv -2 0 2\nf 1 3 2\nf 1 4 3\n");
+  Result r = run({"render", "scene.xml", "-o", "out.pfm", "--threads", "1"});
+  ASSERT_TRUE(r.exited);
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir / "out.pfm"));
+}
+
+TEST_F(CliObj, NonFiniteVertex) {
+  const std::string head = "# a quad\nv -1 0 -1\nv 1 0 -1\n";
+  const std::string tail = "v -1 0 1\nf 1 2 3\nf 1 3 4\n";
+  for (const char* bad : {"nan", "inf", "-inf", "1e999", "1e39"}) {
+    SCOPED_TRACE(bad);
+    expect_bad_obj(head + "v 1 " + bad + " 1\n" + tail, std::string("v 1 ") + bad, std::string("'") + bad + "'");
+  }
+  expect_bad_obj(head + "v 1 0 1\nvn 0 nan 1\n" + tail, "vn 0 nan", "'nan' is not a finite number");
+  expect_bad_obj(head + "v 1 zero 1\n" + tail, "v 1 zero", "'zero' is not a number");
+  expect_bad_obj(head + "v 1 0\n" + tail, "v 1 0\n", "needs 3 numbers");
+}
+
+TEST_F(CliObj, BadFaces) {
+  const std::string v = "v -1 0 -1\nv 1 0 -1\nv 1 0 1\n";
+  expect_bad_obj(v + "f 1 2 4\n", "f 1 2 4", "vertex index 4 is out of range");
+  expect_bad_obj(v + "f 1 2 0\n", "f 1 2 0", "vertex index 0 is out of range");
+  expect_bad_obj(v + "f -1 -2 -4\n", "f -1 -2 -4", "vertex index -4 is out of range");
+  expect_bad_obj(v + "f 1//1 2//1 3//1\n", "f 1//1", "normal index 1 is out of range");
+  expect_bad_obj(v + "f 1 2\n", "f 1 2", "at least 3 vertices");
+  expect_bad_obj(v + "f 1 2 x\n", "f 1 2 x", "'x' is not an index");
+}
+
+TEST_F(CliObj, EmptyMesh) {
+  expect_bad_obj("# vertices, but no faces\nv 0 0 0\nv 1 0 0\nv 0 1 0\n", "", "mesh has no faces");
+  expect_bad_obj("", "", "mesh has no faces");
+}
+
+TEST_F(CliObj, MissingObjIsReportedAtTheShape) {
+  std::string text = scene_with_obj();
+  write_file(dir / "scene.xml", text);
+  expect_bad({"render", "scene.xml", "-o", "out.exr"}, "scene.xml", line_of(text, "<shape type=\"obj\">"),
+             "cannot open OBJ file");
+}
+
+TEST_F(CliObj, EmptyObjAsScene) {
+  write_file(dir / "model.obj", "v 0 0 0\n");
+  expect_bad({"render", "model.obj", "-o", "out.exr"}, "model.obj", 0, "mesh has no faces");
+}
+
+TEST_F(Cli, UndefinedReference) {
+  expect_bad_scene(replace(kScene, "<ref id=\"floor\"/>", "<ref id=\"flor\"/>"), "<ref id=\"flor\"/>",
+                   "no bsdf with id 'flor'");
+}
+
+TEST_F(Cli, UndefinedParameter) {
+  expect_bad_scene(replace(kScene, "value=\"$h\"", "value=\"$height\""), "$height", "undefined parameter '$height'");
+}
+
+TEST_F(Cli, DefineForUndeclaredParameter) {
+  write_file(dir / "scene.xml", kScene);
+  expect_bad({"render", "scene.xml", "-o", "out.exr", "-D", "spp=4"}, "scene.xml", 0, "-D spp");
+  expect_bad({"render", "scene.xml", "-o", "out.exr", "-D", "w"}, "", 0, "-D w: expected name=value");
+  expect_bad({"render", "scene.xml", "-o", "out.exr", "-D", "w=4", "-D", "w=5"}, "", 0, "-D w: given twice");
+  expect_bad({"render", "scene.xml", "-o", "out.exr", "-D", "w=abc"}, "scene.xml", line_of(kScene, "value=\"$w\""),
+             "'abc' is not a number");
+  expect_bad({"render", "scene.xml", "-o", "out.exr", "-D", "w=0"}, "scene.xml", line_of(kScene, "<film"),
+             "film size");
+}
+
+TEST_F(Cli, DefineForObjScene) {
+  write_file(dir / "model.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  expect_bad({"render", "model.obj", "-o", "out.exr", "-D", "w=4"}, "model.obj", 0, "-D applies to Mitsuba XML");
+}
+
+TEST_F(Cli, BadFlags) {
+  write_file(dir / "scene.xml", kScene);
+  expect_bad({"render", "scene.xml", "--spp", "0"}, "", 0, "--spp");
+  expect_bad({"render", "scene.xml", "--spp", "-3"}, "", 0, "--spp");
+  expect_bad({"render", "scene.xml", "--spp", "many"}, "", 0, "--spp");
+  expect_bad({"render", "scene.xml", "--sampler", "bogus"}, "", 0, "--sampler");
+  expect_bad({"render", "scene.xml", "--integrator", "bdpt"}, "", 0, "--integrator");
+  expect_bad({"render", "scene.xml", "--max-depth", "0"}, "", 0, "--max-depth");
+  expect_bad({"render", "scene.xml", "--threads", "-1"}, "", 0, "--threads");
+  expect_bad({"render", "scene.xml", "--bogus"}, "", 0, "--bogus");
+  expect_bad({"render"}, "", 0, "scene");
+  expect_bad({}, "", 0, "subcommand");
+  expect_bad({"paint", "scene.xml"}, "", 0, "subcommand");
+}
+
+TEST_F(Cli, BadOutputs) {
+  write_file(dir / "scene.xml", kScene);
+  expect_bad({"render", "scene.xml", "-o", "out.jpg"}, "out.jpg", 0, "unknown image format '.jpg'");
+  expect_bad({"render", "scene.xml", "-o", "out"}, "out", 0, "no image extension");
+  expect_bad({"render", "scene.xml", "-o", "good.exr", "-o", "bad.tiff"}, "bad.tiff", 0, "unknown image format");
+  expect_bad({"render", "scene.xml", "-o", "nodir/out.exr"}, "nodir/out.exr", 0, "does not exist");
+  fs::create_directory(dir / "d.exr");
+  expect_bad({"render", "scene.xml", "-o", "d.exr"}, "d.exr", 0, "is a directory");
+}
+
+TEST_F(Cli, HelpSucceeds) {
+  Result r = run({"render", "--help"});
+  ASSERT_TRUE(r.exited);
+  EXPECT_EQ(r.status, 0);
+  EXPECT_NE(r.out.find("--spp"), std::string::npos);
+  r = run({"--help"});
+  ASSERT_TRUE(r.exited);
+  EXPECT_EQ(r.status, 0);
+}
+
+// ---------------------------------------------------------------- good input
+
+void expect_sane(const luz::Image& img, int w, int h, bool lit = true) {
+  ASSERT_EQ(img.width, w);
+  ASSERT_EQ(img.height, h);
+  ASSERT_EQ(img.rgb.size(), size_t(w) * h * 3);
+  double sum = 0;
+  for (float v : img.rgb) {
+    ASSERT_TRUE(std::isfinite(v));
+    ASSERT_GE(v, 0.f);
+    sum += v;
+  }
+  if (lit) EXPECT_GT(sum, 0.0) << "the floor is lit; the image must not be black";
+}
+
+TEST_F(Cli, RendersEveryFormat) {
+  write_file(dir / "scene.xml", kScene);
+  Result r = run({"render", "scene.xml", "-o", "a.exr", "-o", "b.pfm", "-o", "c.png", "--threads", "1"});
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.status, 0) << r.err;
+  luz::Image exr = luz::read_exr((dir / "a.exr").string());
+  luz::Image pfm = luz::read_pfm((dir / "b.pfm").string());
+  expect_sane(exr, 8, 6);
+  expect_sane(pfm, 8, 6);
+  EXPECT_EQ(exr.rgb, pfm.rgb) << "both float formats hold the same pixels, rows in the same order";
+  std::string png = slurp(dir / "c.png");
+  ASSERT_GE(png.size(), 24u);
+  EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  // IHDR width and height, big-endian, at bytes 16..23.
+  auto be32 = [&](size_t at) {
+    return (uint32_t(uint8_t(png[at])) << 24) | (uint32_t(uint8_t(png[at + 1])) << 16) |
+           (uint32_t(uint8_t(png[at + 2])) << 8) | uint32_t(uint8_t(png[at + 3]));
+  };
+  EXPECT_EQ(be32(16), 8u);
+  EXPECT_EQ(be32(20), 6u);
+  EXPECT_EQ(listing(), (std::set<std::string>{"scene.xml", "a.exr", "b.pfm", "c.png"})) << "no .part file left";
+}
+
+TEST_F(Cli, DefaultOutputNameFollowsTheScene) {
+  write_file(dir / "box.xml", kScene);
+  Result r = run({"render", "box.xml", "--threads", "1", "--spp", "1"});
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.status, 0) << r.err;
+  expect_sane(luz::read_exr((dir / "box.exr").string()), 8, 6);
+}
+
+TEST_F(Cli, DefineOverridesDefault) {
+  write_file(dir / "scene.xml", kScene);
+  Result r = run({"render", "scene.xml", "-o", "out.pfm", "--threads", "1", "-D", "w=5", "-D", "h=3"});
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.status, 0) << r.err;
+  expect_sane(luz::read_pfm((dir / "out.pfm").string()), 5, 3);
+}
+
+TEST_F(Cli, FlagsOverrideTheScene) {
+  write_file(dir / "scene.xml", kScene);
+  for (const char* sampler : {"independent", "stratified", "sobol"})
+    for (const char* integrator : {"path", "bsdf", "light"}) {
+      SCOPED_TRACE(std::string(sampler) + " " + integrator);
+      Result r = run({"render", "scene.xml", "-o", "out.pfm", "--threads", "1", "--spp", "1", "--seed", "7",
+                      "--max-depth", "2", "--sampler", sampler, "--integrator", integrator});
+      ASSERT_TRUE(r.exited);
+      ASSERT_EQ(r.status, 0) << r.err;
+      EXPECT_NE(r.err.find("1 spp"), std::string::npos) << r.err;
+      // One sample of 48 pixels: only the path tracer (with light sampling) surely sees light.
+      expect_sane(luz::read_pfm((dir / "out.pfm").string()), 8, 6, std::string(integrator) != "bsdf");
+    }
+}
+
+TEST_F(Cli, RendersMcGuireObjDirectly) {
+  fs::path obj = fs::path(LUZ_SHARED_DIR) / "scenes/cornell-box-mcguire/CornellBox-Original.obj";
+  if (!fs::exists(obj)) GTEST_SKIP() << obj << " is not there";
+  // The OBJ camera is 512²; one sample per pixel keeps it about a second.
+  Result r = run({"render", obj.string(), "-o", "box.pfm", "--spp", "1", "--threads", "1", "--max-depth", "3"});
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.status, 0) << r.err;
+  expect_sane(luz::read_pfm((dir / "box.pfm").string()), 512, 512);
+}
+
+TEST_F(Cli, RendersBitterliSceneV3Unchanged) {
+  fs::path xml = fs::path(LUZ_SHARED_DIR) / "scenes/cornell-box-bitterli/mitsuba3/scene_v3.xml";
+  if (!fs::exists(xml)) GTEST_SKIP() << xml << " is not there";
+  // Only its own <default>s are overridden: resolution and samples.
+  Result r = run({"render", xml.string(), "-o", "box.exr", "-D", "resx=16", "-D", "resy=12", "-D", "spp=2", "--threads",
+                  "1"});
+  ASSERT_TRUE(r.exited);
+  ASSERT_EQ(r.status, 0) << r.err;
+  expect_sane(luz::read_exr((dir / "box.exr").string()), 16, 12);
+}
+
+}  // namespace
