@@ -58,11 +58,6 @@ LUZ_INLINE Vec3 offset_ray_origin(Vec3 p, Vec3 n) {
   return r;
 }
 
-// Origin for a ray leaving a surface in direction d: offset to d's side.
-LUZ_INLINE Vec3 spawn_origin(const Interaction& it, Vec3 d) {
-  return offset_ray_origin(it.p, dot(d, it.ng) > 0.f ? it.ng : -it.ng);
-}
-
 // Ray-sphere intersection, numerically careful form (Haines et al., "Precision
 // Improvements for Ray/Sphere Intersection", Ray Tracing Gems ch. 7). d must be
 // unit length. Returns the nearest t in (0, tmax), or a negative value.

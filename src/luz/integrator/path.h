@@ -79,20 +79,25 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
     const Bsdf& bsdf = scene.materials[it.material];
     Frame frame = Frame::from_normal(it.ns);
     Vec3 wo = frame.to_local(-ray.d);
+    // BSDFs here reflect only: every ray leaving this vertex (shadow ray and
+    // continuation) starts on the viewer's side of the geometric surface, so
+    // one robust offset origin serves both.
+    const Vec3 n_out = dot(ray.d, it.ng) < 0.f ? it.ng : -it.ng;
+    const Vec3 origin = offset_ray_origin(it.p, n_out);
 
     // Next-event estimation.
-    float u_light = sampler.next_1d();
-    Vec2 u_light2 = sampler.next_2d();
     if (use_nee && scene.num_emitters > 0) {
+      float u_light = sampler.next_1d();
+      Vec2 u_light2 = sampler.next_2d();
       uint32_t e = scene.select_emitter(u_light);
       LightSample ls = scene.sample_emitter(e, it.p, u_light2);
       if (ls.pdf > 0.f) {
         Vec3 wi = frame.to_local(ls.wi);
         Color f = bsdf.f(wo, wi);
         // Geometric side test too: no light through the surface itself.
-        if (!is_black(f) && dot(ls.wi, it.ng) * dot(-ray.d, it.ng) > 0.f) {
+        if (!is_black(f) && dot(ls.wi, n_out) > 0.f) {
           Ray shadow;
-          shadow.o = spawn_origin(it, ls.wi);
+          shadow.o = origin;
           shadow.d = ls.wi;
           if (ls.dist < kInfinity) {
             Vec3 target = offset_ray_origin(ls.p, dot(ls.n, ls.wi) < 0.f ? ls.n : -ls.n);
@@ -112,26 +117,27 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
       }
     }
 
-    // BSDF sampling.
+    // BSDF sampling (its dimensions are fixed whether or not NEE ran).
+    sampler.dim = kCameraDims + uint32_t(depth - 1) * kDimsPerVertex + 2;
     float u_bsdf = sampler.next_1d();
     Vec2 u_bsdf2 = sampler.next_2d();
     BsdfSample bs = bsdf.sample(wo, u_bsdf, u_bsdf2);
     if (!bs.valid) break;
     Vec3 wi_world = frame.to_world(bs.wi);
     // Reject continuations that cross the geometric surface the wrong way.
-    if (dot(wi_world, it.ng) * dot(-ray.d, it.ng) <= 0.f) break;
+    if (dot(wi_world, n_out) <= 0.f) break;
     beta *= bs.weight;
     prev_pdf = bs.pdf;
     prev_p = it.p;
 
     // Russian roulette on the throughput.
-    float u_rr = sampler.next_1d();
     if (depth >= params.rr_depth) {
+      float u_rr = sampler.next_1d();
       float q = min(max_component(beta), 0.95f);
       if (!(u_rr < q)) break;
       beta = beta / q;
     }
-    ray.o = spawn_origin(it, wi_world);
+    ray.o = origin;
     ray.d = wi_world;
     ray.tmax = kInfinity;
   }
