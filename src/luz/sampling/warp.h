@@ -51,10 +51,11 @@ LUZ_INLINE Vec3 square_to_uniform_cone(Vec2 u, float one_minus_cos_max) {
   return {r * cosf(phi), r * sinf(phi), z};
 }
 LUZ_INLINE float uniform_cone_pdf(float one_minus_cos_max) { return 1.f / (2.f * kPi * one_minus_cos_max); }
-// 1 - cos θmax for the cone subtended by a sphere with sin²θmax = s2.
-LUZ_INLINE float cone_one_minus_cos(float s2) {
-  return s2 < 1e-3f ? s2 * (0.5f + s2 * 0.125f) : 1.f - safe_sqrt(1.f - s2);
-}
+// 1 - cos θmax for the cone subtended by a sphere with sin²θmax = s2, as
+// s2 / (1 + cos θmax): no cancellation, so it keeps float precision for every
+// s2 (1 - sqrt(1 - s2) lost up to 7e-5 relative just above s2 = 1e-3, where
+// a series used to take over; tests/test_warp.cpp checks it).
+LUZ_INLINE float cone_one_minus_cos(float s2) { return s2 / (1.f + safe_sqrt(1.f - s2)); }
 
 // Uniform on a triangle: barycentrics (b1, b2) of vertices 1 and 2.
 LUZ_INLINE Vec2 square_to_triangle_barycentrics(Vec2 u) {
