@@ -10,6 +10,19 @@
 
 namespace luz {
 
+// One pixel's running sums, kept in registers while its samples are taken.
+struct PixelSums {
+  double sum[3] = {0, 0, 0}, sum_sq[3] = {0, 0, 0};
+  uint32_t count = 0;
+  void add(Color c) {
+    for (int k = 0; k < 3; ++k) {
+      sum[k] += c[k];
+      sum_sq[k] += double(c[k]) * c[k];
+    }
+    ++count;
+  }
+};
+
 struct Film {
   int width = 0, height = 0;
   std::vector<double> sum, sum_sq;  // 3 per pixel
@@ -25,6 +38,15 @@ struct Film {
       sum_sq[3 * i + k] += double(c[k]) * c[k];
     }
     ++count[i];
+  }
+
+  void add(int x, int y, const PixelSums& p) {
+    size_t i = size_t(y) * width + x;
+    for (int k = 0; k < 3; ++k) {
+      sum[3 * i + k] += p.sum[k];
+      sum_sq[3 * i + k] += p.sum_sq[k];
+    }
+    count[i] += p.count;
   }
 
   // Mean per pixel, RGB interleaved, rows top to bottom.

@@ -118,6 +118,13 @@ struct Sampler {
     return reverse_bits32(laine_karras_permutation(index_reversed, key));  // = owen_scramble(index, key)
   }
 
+  // Next sample of the same pixel (the pixel's hash is kept).
+  LUZ_INLINE void set_sample(uint32_t sample_index) {
+    index = sample_index;
+    index_reversed = reverse_bits32(sample_index);
+    dim = 0;
+  }
+
   LUZ_INLINE float next_1d() {
     uint32_t d = dim++;
     switch (desc.type) {

@@ -93,18 +93,22 @@ Film render_cpu(const Scene& scene, const CpuRenderOptions& options, RenderStats
           int x1 = std::min(x0 + kTile, cam.width), y1 = std::min(y0 + kTile, cam.height);
           uint64_t tile_rays = 0, tile_bad = 0;
           for (int y = y0; y < y1; ++y)
-            for (int x = x0; x < x1; ++x)
+            for (int x = x0; x < x1; ++x) {
+              PixelSums px;
+              Sampler sampler;
+              sampler.start(desc, uint32_t(x), uint32_t(y), 0);
               for (uint32_t s = 0; s < desc.spp; ++s) {
-                Sampler sampler;
-                sampler.start(desc, uint32_t(x), uint32_t(y), s);
+                sampler.set_sample(s);
                 Vec2 off = sample_filter(rs.filter, sampler.next_2d());
                 Ray ray = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
                 Color L = path_li(view, tracer, ray, sampler, rs.integrator, tile_rays);
                 if (is_finite(L))
-                  film.add(x, y, L);
+                  px.add(L);
                 else
                   ++tile_bad;
               }
+              film.add(x, y, px);
+            }
           rays.fetch_add(tile_rays, std::memory_order_relaxed);
           discarded.fetch_add(tile_bad, std::memory_order_relaxed);
           progress.advance(uint64_t(x1 - x0) * (y1 - y0) * desc.spp);
