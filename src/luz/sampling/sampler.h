@@ -96,17 +96,29 @@ LUZ_INLINE uint32_t scrambled_sobol_dim1(uint32_t i, uint32_t seed) {
 // each consume one dimension index.
 struct Sampler {
   SamplerDesc desc;
-  uint64_t pixel_key = 0;  // hash of (seed, pixel)
-  uint32_t index = 0;      // sample index within the pixel
+  uint64_t pixel_key = 0;   // hash of (seed, pixel)
+  uint64_t sample_key = 0;  // hash of (seed, pixel, sample index): independent sampler
+  uint32_t index = 0;       // sample index within the pixel
   uint32_t index_reversed = 0;
   uint32_t dim = 0;
 
   LUZ_INLINE void start(const SamplerDesc& d, uint32_t px, uint32_t py, uint32_t sample_index) {
     desc = d;
     pixel_key = hash4(d.seed, px, py, 0x5a3c1e9dull);
+    set_sample(sample_index);
+  }
+
+  // Next sample of the same pixel (the pixel's hash is kept).
+  LUZ_INLINE void set_sample(uint32_t sample_index) {
     index = sample_index;
     index_reversed = reverse_bits32(sample_index);
+    sample_key = hash_combine(pixel_key, sample_index);
     dim = 0;
+  }
+
+  // One 64-bit hash per (base, dimension); 1D and 2D requests get distinct keys.
+  LUZ_INLINE static uint64_t dim_key(uint64_t base, uint32_t d, uint64_t kind) {
+    return mix64(base + (uint64_t(d) * 2 + kind + 1) * 0x9e3779b97f4a7c15ull);
   }
 
   // Padded Sobol (Burley 2020, §4): each dimension visits the sequence in its
@@ -118,30 +130,23 @@ struct Sampler {
     return reverse_bits32(laine_karras_permutation(index_reversed, key));  // = owen_scramble(index, key)
   }
 
-  // Next sample of the same pixel (the pixel's hash is kept).
-  LUZ_INLINE void set_sample(uint32_t sample_index) {
-    index = sample_index;
-    index_reversed = reverse_bits32(sample_index);
-    dim = 0;
-  }
-
   LUZ_INLINE float next_1d() {
     uint32_t d = dim++;
     switch (desc.type) {
       case SamplerType::Stratified: {
         uint32_t n = desc.spp, pass = index / n, i = index % n;
-        uint64_t key = hash_combine(hash_combine(pixel_key, d), pass);
+        uint64_t key = hash_combine(dim_key(pixel_key, d, 0), pass);
         uint32_t stratum = permute(i, n, uint32_t(key));
         float jitter = to_unit_float(hash_combine(key, i + 1));
         return min((stratum + jitter) / float(n), kOneMinusEpsilon);
       }
       case SamplerType::Sobol: {
-        uint64_t key = hash_combine(pixel_key, d);
+        uint64_t key = dim_key(pixel_key, d, 0);
         uint32_t i = shuffle(uint32_t(key));
         return to_unit_float32(scrambled_sobol_dim0(i, uint32_t(key >> 32)));
       }
       default:
-        return to_unit_float(hash_combine(hash_combine(pixel_key, index), d));
+        return to_unit_float(dim_key(sample_key, d, 0));
     }
   }
 
@@ -150,24 +155,32 @@ struct Sampler {
     switch (desc.type) {
       case SamplerType::Stratified: {
         uint32_t n = desc.spp, pass = index / n, i = index % n;
-        uint64_t key = hash_combine(hash_combine(pixel_key, d ^ 0x80000000u), pass);
+        uint64_t key = hash_combine(dim_key(pixel_key, d, 1), pass);
         uint32_t stratum = permute(i, n, uint32_t(key));
         uint32_t sx = stratum % desc.strata_x, sy = stratum / desc.strata_x;
         uint64_t h = hash_combine(key, i + 1);
-        float jx = to_unit_float(h), jy = to_unit_float(mix64(h));
+        float jx = to_unit_float(h), jy = float(h & 0xffffffu) * 0x1p-24f;
         return {min((sx + jx) / float(desc.strata_x), kOneMinusEpsilon),
                 min((sy + jy) / float(desc.strata_y), kOneMinusEpsilon)};
       }
       case SamplerType::Sobol: {
-        uint64_t key = hash_combine(pixel_key, d ^ 0x80000000u);
-        uint64_t key2 = mix64(key);
-        uint32_t i = shuffle(uint32_t(key));
-        return {to_unit_float32(scrambled_sobol_dim0(i, uint32_t(key >> 32))),
-                to_unit_float32(scrambled_sobol_dim1(i, uint32_t(key2)))};
+        uint64_t key = dim_key(pixel_key, d, 1);
+        uint32_t lo = uint32_t(key), hi = uint32_t(key >> 32);
+        uint32_t i = shuffle(lo);
+        // A third 32-bit seed, for dimension 1: the two halves remixed by
+        // C. Wellons' "lowbias32" integer hash.
+        uint32_t k2 = lo ^ (hi * 0x9e3779b9u);
+        k2 ^= k2 >> 16;
+        k2 *= 0x7feb352du;
+        k2 ^= k2 >> 15;
+        k2 *= 0x846ca68bu;
+        k2 ^= k2 >> 16;
+        return {to_unit_float32(scrambled_sobol_dim0(i, hi)), to_unit_float32(scrambled_sobol_dim1(i, k2))};
       }
       default: {
-        uint64_t h = hash_combine(hash_combine(pixel_key, index), d ^ 0x80000000u);
-        return {to_unit_float(h), to_unit_float(mix64(h))};
+        // One 64-bit hash, two 24-bit fractions from disjoint bits.
+        uint64_t h = dim_key(sample_key, d, 1);
+        return {to_unit_float(h), float(h & 0xffffffu) * 0x1p-24f};
       }
     }
   }
