@@ -13,6 +13,10 @@ struct Emitter {
   EmitterType type = EmitterType::Triangle;
   uint32_t prim = 0;  // triangle or sphere index
   Color radiance;
+  // Triangles: unit normal (the emitting side) and area, set by Scene::compile()
+  // so that light sampling does not recompute them at every vertex.
+  Vec3 normal;
+  float area = 0.f;
 };
 
 // A sampled point on an emitter as seen from a reference point.

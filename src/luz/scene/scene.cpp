@@ -85,7 +85,16 @@ void Scene::compile() {
     const Emitter& em = emitters[e];
     double area = 0;
     switch (em.type) {
-      case EmitterType::Triangle: area = v.triangle_area(em.prim); break;
+      case EmitterType::Triangle: {
+        Vec3 p0, p1, p2;
+        v.triangle(em.prim, p0, p1, p2);
+        Vec3 c = cross(p1 - p0, p2 - p0);
+        float len = length(c);
+        emitters[e].area = 0.5f * len;
+        emitters[e].normal = len > 0.f ? c / len : Vec3{0, 0, 1};
+        area = emitters[e].area;
+        break;
+      }
       case EmitterType::Sphere: area = 4.0 * M_PI * double(spheres[em.prim].radius) * spheres[em.prim].radius; break;
       case EmitterType::Constant:
         area = M_PI * double(radius) * radius;  // flux through the scene's bounding disk

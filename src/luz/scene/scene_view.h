@@ -84,12 +84,6 @@ struct SceneView {
     return environment >= 0 ? emitters[environment].radiance : Color{};
   }
 
-  LUZ_INLINE float triangle_area(uint32_t k) const {
-    Vec3 p0, p1, p2;
-    triangle(k, p0, p1, p2);
-    return 0.5f * length(cross(p1 - p0, p2 - p0));
-  }
-
   // Index of the emitter selected by u, by binary search of the CDF.
   LUZ_INLINE uint32_t select_emitter(float u) const {
     uint32_t lo = 0, hi = num_emitters - 1;
@@ -113,16 +107,14 @@ struct SceneView {
         triangle(em.prim, p0, p1, p2);
         Vec2 b = square_to_triangle_barycentrics(u);
         ls.p = p0 * (1.f - b.x - b.y) + p1 * b.x + p2 * b.y;
-        Vec3 c = cross(p1 - p0, p2 - p0);
-        float area = 0.5f * length(c);
-        ls.n = normalize(c);
+        ls.n = em.normal;
         Vec3 d = ls.p - ref;
         float d2 = length_squared(d);
         ls.dist = sqrtf(d2);
         ls.wi = d / ls.dist;
         float cos_l = -dot(ls.n, ls.wi);
-        if (cos_l <= 0.f || area <= 0.f) return ls;  // back of a one-sided emitter
-        ls.pdf = d2 / (cos_l * area);
+        if (cos_l <= 0.f || em.area <= 0.f) return ls;  // back of a one-sided emitter
+        ls.pdf = d2 / (cos_l * em.area);
         ls.radiance = em.radiance;
         return ls;
       }
@@ -185,9 +177,8 @@ struct SceneView {
     switch (em.type) {
       case EmitterType::Triangle: {
         float cos_l = -dot(it.ng, wi);
-        float area = triangle_area(em.prim);
-        if (cos_l <= 0.f || area <= 0.f) return 0.f;
-        return dist * dist / (cos_l * area);
+        if (cos_l <= 0.f || em.area <= 0.f) return 0.f;
+        return dist * dist / (cos_l * em.area);
       }
       case EmitterType::Sphere: {
         const Sphere& s = spheres[em.prim];
