@@ -1,0 +1,712 @@
+// Luz's own BVH (accel/bvh.h, bvh_build.cpp), host-compiled, against Embree.
+//
+//  * Agreement: ~1.3 million closest-hit queries and as many any-hit queries
+//    over the Cornell box, Sponza (66k triangles) and a scene of spheres and
+//    triangles built here, with random rays (origins in the bounds, uniform
+//    directions, some axis-parallel, some starting on the triangles' planes)
+//    and with the rays the path tracer itself issues (recorded through
+//    Embree). Both must agree on hit/miss, primitive, t (relative 1e-5 of
+//    the magnitudes involved), u, v, and on occlusion. Two hits on different
+//    primitives at the same t (shared edges, coplanar overlaps) are counted
+//    as ties and bounded (≤ 1e-4 of the rays); other disagreements are
+//    allowed only where the ray passes within float rounding of a hit
+//    primitive's edge (Embree's default triangle test is not watertight;
+//    ours is), and those are counted, printed and bounded too.
+//  * Watertightness: rays through the vertices and edges of a triangle grid
+//    always hit.
+//  * Structure: every primitive referenced exactly once, every box contains
+//    its primitives and sub-boxes, leaves ≤ the maximum size, depth within
+//    the traversal stack, SAH cost below an object-median baseline, bytes
+//    per triangle ≤ 64. Sponza's build time, throughput per thread, node
+//    count and bytes per triangle are printed.
+//  * path_li<BvhTracer> on the CPU renders what path_li<EmbreeTracer> does.
+#include <gtest/gtest.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "luz/accel/bvh_build.h"
+#include "luz/accel/embree_tracer.h"
+#include "luz/film/filter.h"
+#include "luz/io/scene_loader.h"
+
+using namespace luz;
+
+namespace {
+
+const std::string kCornell = LUZ_SOURCE_DIR "/scenes/cornell-box.xml";
+const std::string kSponza = LUZ_SHARED_DIR "/scenes/sponza-dabrovic-obj/sponza.obj";
+
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+
+// Deterministic random numbers (splitmix64).
+struct Rng {
+  uint64_t s;
+  explicit Rng(uint64_t seed) : s(seed * 0x9E3779B97F4A7C15ull + 0x1234567ull) {}
+  uint64_t next() {
+    uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  float uniform() { return float(next() >> 40) * 0x1p-24f; }
+};
+
+Vec3 uniform_direction(Rng& rng) {
+  float z = 1.f - 2.f * rng.uniform(), phi = 2.f * kPi * rng.uniform();
+  float r = std::sqrt(std::max(0.f, 1.f - z * z));
+  return {r * std::cos(phi), r * std::sin(phi), z};
+}
+
+struct TestRay {
+  Ray ray;
+  bool shadow;            // a path tracer's shadow ray (only occlusion is asked of it)
+  bool on_plane = false;  // built to start on a vertex's coordinate plane
+};
+
+// Random rays: origins uniform in the (slightly enlarged) bounds, directions
+// uniform; 5% with one or two direction components exactly zero, 5% with
+// the origin on a vertex's coordinate plane; half get a finite tmax.
+std::vector<TestRay> random_rays(const Scene& s, size_t n, uint64_t seed) {
+  Rng rng(seed);
+  Vec3 lo = s.bounds_min, hi = s.bounds_max, ext = hi - lo;
+  lo = lo - ext * 0.05f;
+  ext = ext * 1.1f;
+  std::vector<TestRay> out(n);
+  for (size_t i = 0; i < n; ++i) {
+    Ray r;
+    r.o = {lo.x + ext.x * rng.uniform(), lo.y + ext.y * rng.uniform(), lo.z + ext.z * rng.uniform()};
+    r.d = uniform_direction(rng);
+    uint64_t kind = rng.next() % 20;
+    if (kind == 0) {
+      int a = int(rng.next() % 3);
+      r.d[a] = 0.f;
+      if (rng.next() & 1) r.d[(a + 1) % 3] = 0.f;
+      r.d = normalize(r.d);
+    }
+    bool on_plane = kind == 1 && !s.positions.empty();
+    if (on_plane) {
+      Vec3 p = s.positions[rng.next() % s.positions.size()];
+      int a = int(rng.next() % 3);
+      r.o[a] = p[a];
+    }
+    if (rng.next() & 1) r.tmax = length(ext) * rng.uniform();
+    out[i] = {r, false, on_plane};
+  }
+  return out;
+}
+
+// A Tracer that answers through Embree and keeps every query (as bench/luz_bench.cpp).
+struct RecordingTracer {
+  EmbreeTracer inner;
+  std::vector<TestRay>* out;
+  bool intersect(const Ray& r, Hit& h) const {
+    out->push_back({r, false});
+    return inner.intersect(r, h);
+  }
+  bool occluded(const Ray& r) const {
+    out->push_back({r, true});
+    return inner.occluded(r);
+  }
+};
+
+// The rays path_li issues for pixels on a grid, until `n` are recorded.
+std::vector<TestRay> path_rays(const Scene& s, const EmbreeScene& embree, size_t n, uint64_t seed) {
+  std::vector<TestRay> rays;
+  rays.reserve(n + 1000);
+  SceneView view = s.view();
+  SamplerDesc desc = make_sampler_desc(SamplerType::Independent, 1u << 20, seed);
+  RecordingTracer rec{embree.tracer(), &rays};
+  IntegratorParams params;  // path, unbounded depth, Russian roulette
+  const Camera& cam = s.camera;
+  for (uint32_t sample = 0; rays.size() < n; ++sample)
+    for (int y = int(sample % 3); y < cam.height && rays.size() < n; y += 3)
+      for (int x = int(sample / 3 % 3); x < cam.width && rays.size() < n; x += 3) {
+        Sampler sampler;
+        sampler.start(desc, uint32_t(x), uint32_t(y), sample);
+        Vec2 off = sample_filter(FilterKind::Box, sampler.next_2d());
+        Ray r = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+        uint64_t count = 0;
+        path_li(view, rec, r, sampler, params, count);
+      }
+  rays.resize(n);
+  return rays;
+}
+
+// Distance (in the triangle's plane, double precision) from the ray's
+// crossing of the triangle's plane to the triangle's boundary, relative to
+// the triangle's size; negative inside. A ray within rounding of an edge has
+// a value near 0.
+double edge_distance(const Scene& s, uint32_t tri, const Ray& ray) {
+  double p[3][3];
+  for (int j = 0; j < 3; ++j)
+    for (int a = 0; a < 3; ++a) p[j][a] = s.positions[s.indices[3 * tri + j]][a];
+  double e1[3], e2[3], n[3];
+  for (int a = 0; a < 3; ++a) e1[a] = p[1][a] - p[0][a], e2[a] = p[2][a] - p[0][a];
+  n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+  n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+  n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+  double o[3] = {ray.o.x, ray.o.y, ray.o.z}, d[3] = {ray.d.x, ray.d.y, ray.d.z};
+  double dn = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+  if (dn == 0) return 0;  // parallel: "on the boundary" for our purposes
+  double t = ((p[0][0] - o[0]) * n[0] + (p[0][1] - o[1]) * n[1] + (p[0][2] - o[2]) * n[2]) / dn;
+  double x[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
+  double nn = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  double worst = -1e300, size = 0;
+  for (int j = 0; j < 3; ++j) {
+    const double* a = p[j];
+    const double* b = p[(j + 1) % 3];
+    double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, ax[3] = {x[0] - a[0], x[1] - a[1], x[2] - a[2]};
+    double c[3] = {ab[1] * ax[2] - ab[2] * ax[1], ab[2] * ax[0] - ab[0] * ax[2], ab[0] * ax[1] - ab[1] * ax[0]};
+    double len = std::sqrt(ab[0] * ab[0] + ab[1] * ab[1] + ab[2] * ab[2]);
+    size = std::max(size, len);
+    // Signed distance to the edge's line, positive outside.
+    double sd = -(c[0] * n[0] + c[1] * n[1] + c[2] * n[2]) / (nn * std::max(len, 1e-300));
+    worst = std::max(worst, sd);
+  }
+  return worst / std::max(size, 1e-300);
+}
+
+// The exact (double) distance along the ray to a triangle's plane, relative
+// to the magnitudes involved: near 0 when the origin lies on the plane, where
+// t is nothing but rounding error and any answer is as good as another.
+double plane_t_rel(const Scene& s, uint32_t tri, const Ray& ray) {
+  double p[3][3];
+  for (int j = 0; j < 3; ++j)
+    for (int a = 0; a < 3; ++a) p[j][a] = s.positions[s.indices[3 * tri + j]][a];
+  double e1[3], e2[3], n[3];
+  for (int a = 0; a < 3; ++a) e1[a] = p[1][a] - p[0][a], e2[a] = p[2][a] - p[0][a];
+  n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+  n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+  n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+  double dn = n[0] * ray.d.x + n[1] * ray.d.y + n[2] * ray.d.z;
+  if (dn == 0) return 0;
+  double t = ((p[0][0] - ray.o.x) * n[0] + (p[0][1] - ray.o.y) * n[1] + (p[0][2] - ray.o.z) * n[2]) / dn;
+  double scale = 1e-30;
+  for (int j = 0; j < 3; ++j)
+    for (int a = 0; a < 3; ++a) scale = std::max(scale, std::fabs(p[j][a]));
+  return std::fabs(t) / scale;
+}
+
+struct Counts {
+  size_t rays = 0, hits = 0, ties = 0, edge_cases = 0, on_plane = 0, errors = 0;
+  double max_t_rel = 0, max_uv = 0;
+};
+
+struct Outcome {
+  bool eh, bh, eo, bo;
+  Hit e, b;
+};
+
+// Relative t tolerance: 1e-5 of the magnitudes the computation involved
+// (t itself and the origin's coordinates, whose rounding enters t).
+double t_scale(const Ray& r, float t) {
+  return std::max({double(t), double(std::fabs(r.o.x)), double(std::fabs(r.o.y)), double(std::fabs(r.o.z))});
+}
+
+Counts compare(const char* name, const Scene& s, const EmbreeTracer& et, const BvhTracer& bt,
+               const std::vector<TestRay>& rays) {
+  std::vector<Outcome> out(rays.size());
+  tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 1024), [&](const tbb::blocked_range<size_t>& r) {
+    for (size_t i = r.begin(); i != r.end(); ++i) {
+      Outcome& o = out[i];
+      const Ray& ray = rays[i].ray;
+      o.eh = et.intersect(ray, o.e);
+      o.bh = bt.intersect(ray, o.b);
+      o.eo = et.occluded(ray);
+      o.bo = bt.occluded(ray);
+    }
+  });
+  // An edge case: the ray crosses within this (relative) distance of the
+  // boundary of a triangle one side hit and the other did not.
+  constexpr double kEdge = 1e-5;
+  auto near_edge = [&](const Hit& h, const Ray& ray) {
+    return h.kind == PrimKind::Triangle && std::fabs(edge_distance(s, h.prim, ray)) < kEdge;
+  };
+  // An origin on the plane of a triangle one side hit: exact t = 0.
+  auto on_plane = [&](const Hit& h, const Ray& ray) {
+    return h.kind == PrimKind::Triangle && plane_t_rel(s, h.prim, ray) < 1e-6;
+  };
+  Counts c;
+  int printed = 0;
+  auto report = [&](size_t i, const char* what) {
+    ++c.errors;
+    if (printed++ >= 8) return;
+    const Outcome& o = out[i];
+    const Ray& r = rays[i].ray;
+    ADD_FAILURE() << name << " ray " << i << " (" << (rays[i].shadow ? "shadow" : "query") << "): " << what
+                  << "\n  o = " << r.o.x << " " << r.o.y << " " << r.o.z << "  d = " << r.d.x << " " << r.d.y << " "
+                  << r.d.z << "  tmax = " << r.tmax << "\n  embree " << o.eh << " t=" << o.e.t << " prim=" << o.e.prim
+                  << " kind=" << int(o.e.kind) << " uv=" << o.e.u << "," << o.e.v << " occl=" << o.eo << "\n  bvh    "
+                  << o.bh << " t=" << o.b.t << " prim=" << o.b.prim << " kind=" << int(o.b.kind) << " uv=" << o.b.u
+                  << "," << o.b.v << " occl=" << o.bo;
+  };
+  // A disagreement is explained when a hit involved (either side's) grazes a
+  // triangle edge or starts on a triangle's plane; the closest hits stand in
+  // for the occlusion queries' (occluded() reports no primitive).
+  auto explained = [&](const Outcome& o, const TestRay& tr) -> size_t* {
+    const Ray& ray = tr.ray;
+    if (tr.on_plane && ((o.eh && on_plane(o.e, ray)) || (o.bh && on_plane(o.b, ray)))) return &c.on_plane;
+    if ((o.eh && near_edge(o.e, ray)) || (o.bh && near_edge(o.b, ray))) return &c.edge_cases;
+    return nullptr;
+  };
+  size_t constructed_on_plane = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const Outcome& o = out[i];
+    const Ray& ray = rays[i].ray;
+    ++c.rays;
+    constructed_on_plane += rays[i].on_plane;
+    bool counted = false;
+    auto disagree = [&](const char* what) {
+      if (counted) return;  // one count per ray
+      counted = true;
+      if (size_t* k = explained(o, rays[i]))
+        ++*k;
+      else
+        report(i, what);
+    };
+    if (o.eo != o.bo) disagree("occlusion differs");
+    if (rays[i].shadow) continue;  // the path tracer only asked occluded()
+    if (!o.eh && !o.bh) continue;
+    if (o.eh != o.bh) {
+      disagree("hit/miss differs");
+      continue;
+    }
+    ++c.hits;
+    double tol = 1e-5 * t_scale(ray, std::max(o.e.t, o.b.t));
+    double dt = std::fabs(double(o.e.t) - double(o.b.t));
+    if (o.e.prim != o.b.prim || o.e.kind != o.b.kind) {
+      if (dt <= tol) {
+        if (!counted) ++c.ties;
+      } else {
+        disagree("different primitives at different t");
+      }
+      continue;
+    }
+    c.max_t_rel = std::max(c.max_t_rel, dt / t_scale(ray, o.e.t));
+    if (dt > tol) report(i, "t differs");
+    if (o.e.kind == PrimKind::Triangle) {
+      double du = std::max(std::fabs(o.e.u - o.b.u), std::fabs(o.e.v - o.b.v));
+      c.max_uv = std::max(c.max_uv, du);
+      if (du > 1e-3) report(i, "u, v differ");
+    }
+  }
+  size_t shadow = size_t(std::count_if(rays.begin(), rays.end(), [](const TestRay& r) { return r.shadow; }));
+  std::printf("[%s] %zu rays (%zu shadow), %zu both hit; ties (same t, other primitive) %zu, edge grazes %zu, "
+              "origin on a hit triangle's plane %zu (of %zu rays built to start on a vertex's plane), unexplained %zu; max |Δt|/scale %.2e, max |Δuv| %.2e\n",
+              name, c.rays, shadow, c.hits, c.ties, c.edge_cases, c.on_plane, constructed_on_plane, c.errors, c.max_t_rel, c.max_uv);
+  EXPECT_EQ(c.errors, 0u);
+  EXPECT_LE(double(c.ties), 1e-4 * double(c.rays)) << name;
+  EXPECT_LE(double(c.edge_cases), 1e-4 * double(c.rays)) << name;
+  // (Only the random rays built to start on a vertex's coordinate plane may
+  // be explained so: they start on the axis-aligned triangles' planes.)
+  return c;
+}
+
+// Traversal throughput of both tracers on the same rays (closest hit for
+// queries, any hit for shadow rays), all threads.
+void time_both(const char* name, const EmbreeTracer& et, const BvhTracer& bt, const std::vector<TestRay>& rays) {
+  auto run = [&](auto& tracer) {
+    std::atomic<size_t> sink{0};
+    double t0 = now();
+    tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+      size_t k = 0;
+      for (size_t i = r.begin(); i != r.end(); ++i) {
+        Hit h;
+        k += rays[i].shadow ? tracer.occluded(rays[i].ray) : tracer.intersect(rays[i].ray, h);
+      }
+      sink += k;
+    });
+    return rays.size() / (now() - t0);
+  };
+  double e = run(et), b = run(bt);
+  std::printf("[%s] traversal: Embree %.2f Mrays/s, Luz BVH %.2f Mrays/s (%.2f×), %d threads\n", name, e * 1e-6,
+              b * 1e-6, b / e, tbb::this_task_arena::max_concurrency());
+}
+
+struct Aabb {
+  Vec3 lo, hi;
+};
+Aabb prim_box(const Scene& s, uint32_t ref) {
+  if (ref & kBvhSphereBit) {
+    const Sphere& sp = s.spheres[ref & ~kBvhSphereBit];
+    Vec3 r{sp.radius, sp.radius, sp.radius};
+    return {sp.center - r, sp.center + r};
+  }
+  Vec3 a = s.positions[s.indices[3 * ref]], b = s.positions[s.indices[3 * ref + 1]],
+       c = s.positions[s.indices[3 * ref + 2]];
+  return {vmin(a, vmin(b, c)), vmax(a, vmax(b, c))};
+}
+bool contains(const Aabb& outer, const Aabb& inner) {
+  return outer.lo.x <= inner.lo.x && outer.lo.y <= inner.lo.y && outer.lo.z <= inner.lo.z &&
+         inner.hi.x <= outer.hi.x && inner.hi.y <= outer.hi.y && inner.hi.z <= outer.hi.z;
+}
+Aabb node_child_box(const BvhNode& n, int k) {
+  if (k == 0) return {{n.c0_lx, n.c0_ly, n.c0_lz}, {n.c0_hx, n.c0_hy, n.c0_hz}};
+  return {{n.c1_lx, n.c1_ly, n.c1_lz}, {n.c1_hx, n.c1_hy, n.c1_hz}};
+}
+
+// Structural invariants; returns the number of violations.
+void check_structure(const char* name, const Scene& s, const Bvh& bvh, const BvhBuildOptions& opt) {
+  size_t nt = s.num_triangles(), ns = s.spheres.size();
+  ASSERT_EQ(bvh.prims.size(), nt + ns) << name;
+  std::vector<uint32_t> seen(nt + ns, 0);
+  std::vector<uint32_t> prim_seen(nt + ns, 0);
+  size_t bad_box = 0, bad_leaf = 0, bad_child = 0;
+  std::vector<uint32_t> parents(bvh.nodes.size(), 0);
+  for (size_t i = 0; i < bvh.nodes.size(); ++i) {
+    const BvhNode& n = bvh.nodes[i];
+    for (int k = 0; k < 2; ++k) {
+      Aabb box = node_child_box(n, k);
+      uint32_t c = n.child[k];
+      if (bvh_is_leaf(c)) {
+        uint32_t first = bvh_leaf_first(c), count = bvh_leaf_count(c);
+        if (count > opt.max_leaf_size || size_t(first) + count > bvh.prims.size()) {
+          ++bad_leaf;
+          continue;
+        }
+        for (uint32_t j = first; j < first + count; ++j) {
+          ++prim_seen[j];
+          uint32_t ref = bvh.prims[j];
+          size_t lin = (ref & kBvhSphereBit) ? nt + (ref & ~kBvhSphereBit) : ref;
+          if (lin >= seen.size()) {
+            ++bad_leaf;
+            continue;
+          }
+          ++seen[lin];
+          if (!contains(box, prim_box(s, ref))) ++bad_box;
+        }
+      } else {
+        if (c == 0 || c >= bvh.nodes.size()) {
+          ++bad_child;
+          continue;
+        }
+        ++parents[c];
+        const BvhNode& m = bvh.nodes[c];
+        if (!contains(box, node_child_box(m, 0)) || !contains(box, node_child_box(m, 1))) ++bad_box;
+      }
+    }
+  }
+  size_t not_once = 0, slot_not_once = 0, orphan = 0;
+  for (uint32_t v : seen) not_once += v != 1;
+  for (uint32_t v : prim_seen) slot_not_once += v != 1;
+  for (size_t i = 1; i < parents.size(); ++i) orphan += parents[i] != 1;
+  EXPECT_EQ(not_once, 0u) << name << ": primitives not referenced exactly once";
+  EXPECT_EQ(slot_not_once, 0u) << name << ": reference slots not in exactly one leaf";
+  EXPECT_EQ(bad_box, 0u) << name << ": boxes not containing their contents";
+  EXPECT_EQ(bad_leaf, 0u) << name << ": bad leaves";
+  EXPECT_EQ(bad_child, 0u) << name << ": bad child indices";
+  EXPECT_EQ(orphan, 0u) << name << ": nodes without exactly one parent";
+  EXPECT_LT(int(bvh.max_depth), kBvhStackSize) << name;
+  EXPECT_EQ(bvh.nodes.size() + 1, bvh.num_leaves) << name << ": a binary tree has one leaf more than inner nodes";
+}
+
+struct SceneCase {
+  Scene scene;
+  std::unique_ptr<EmbreeScene> embree;
+  Bvh bvh;
+  BvhTracer tracer;
+};
+
+void prepare(SceneCase& c) {
+  c.embree = std::make_unique<EmbreeScene>(c.scene);
+  c.bvh = build_bvh(c.scene.view());
+  c.tracer = make_bvh_tracer(c.bvh, c.scene.view());
+}
+
+// Sponza (OBJ) lit by a constant environment, so the path tracer issues
+// shadow rays too. Loaded once for all tests.
+SceneCase& sponza() {
+  static SceneCase c = [] {
+    SceneCase s;
+    s.scene = load_obj_scene(kSponza);
+    Emitter env;
+    env.type = EmitterType::Constant;
+    env.radiance = {1.f, 1.f, 1.f};
+    s.scene.emitters.push_back(env);
+    s.scene.compile();
+    // A viewpoint inside the atrium, looking along it.
+    Camera& cam = s.scene.camera;
+    Vec3 lo = s.scene.bounds_min, hi = s.scene.bounds_max, ext = hi - lo;
+    cam.origin = lo + Vec3{ext.x * 0.8f, ext.y * 0.25f, ext.z * 0.5f};
+    cam.z_axis = normalize(Vec3{-1.f, 0.15f, 0.05f});
+    cam.x_axis = normalize(cross(Vec3{0, 1, 0}, cam.z_axis));
+    cam.y_axis = cross(cam.z_axis, cam.x_axis);
+    cam.width = cam.height = 256;
+    cam.tan_half_x = cam.tan_half_y = 0.7f;
+    prepare(s);
+    return s;
+  }();
+  return c;
+}
+
+SceneCase& cornell() {
+  static SceneCase c = [] {
+    SceneCase s;
+    s.scene = load_scene(kCornell, {{"res", "128"}});
+    prepare(s);
+    return s;
+  }();
+  return c;
+}
+
+void add_box(Scene& s, Vec3 lo, Vec3 hi, uint32_t mat) {
+  std::vector<Vec3> p;
+  for (int i = 0; i < 8; ++i) p.push_back({i & 1 ? hi.x : lo.x, i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z});
+  std::vector<uint32_t> idx = {0, 2, 1, 1, 2, 3, 4, 5, 6, 5, 7, 6, 0, 1, 4, 1, 5, 4,
+                               2, 6, 3, 3, 6, 7, 0, 4, 2, 2, 4, 6, 1, 3, 5, 3, 7, 5};
+  s.add_mesh(p, {}, idx, mat, nullptr);
+}
+
+// Spheres and triangles: 1500 random spheres (overlapping, nested, tiny and
+// large) in a room of boxes, an emissive sphere, and a dome (a huge sphere
+// with flipped normals) that every ray starts inside.
+SceneCase& spheres() {
+  static SceneCase c = [] {
+    SceneCase s;
+    Scene& sc = s.scene;
+    uint32_t grey = sc.add_material(Bsdf::make_diffuse({0.7f, 0.7f, 0.7f}, true));
+    uint32_t red = sc.add_material(Bsdf::make_diffuse({0.8f, 0.2f, 0.2f}, true));
+    add_box(sc, {-10, -0.5f, -10}, {10, 0, 10}, grey);  // floor slab
+    add_box(sc, {-10, 0, -10}, {-9.5f, 6, 10}, red);    // a wall
+    add_box(sc, {2, 0, 2}, {3, 2, 3}, grey);            // a block
+    Rng rng(7);
+    for (int i = 0; i < 1500; ++i) {
+      Vec3 c{-9.f + 18.f * rng.uniform(), 5.f * rng.uniform(), -9.f + 18.f * rng.uniform()};
+      float r = 0.02f + 0.5f * rng.uniform() * rng.uniform();
+      sc.add_sphere(c, r, i % 3 == 0 ? red : grey, nullptr, false);
+      if (i % 100 == 0) sc.add_sphere(c, r * 0.5f, grey, nullptr, false);  // nested
+    }
+    Color light{20.f, 18.f, 15.f};
+    sc.add_sphere({0.f, 7.f, 0.f}, 1.f, grey, &light, false);
+    sc.add_sphere({0.f, 0.f, 0.f}, 40.f, grey, nullptr, true);  // the dome
+    sc.compile();
+    Camera& cam = sc.camera;
+    cam.origin = {0.f, 3.f, 14.f};
+    cam.z_axis = normalize(Vec3{0.f, -0.2f, -1.f});
+    cam.x_axis = normalize(cross(Vec3{0, 1, 0}, cam.z_axis));
+    cam.y_axis = cross(cam.z_axis, cam.x_axis);
+    cam.width = cam.height = 192;
+    cam.tan_half_x = cam.tan_half_y = 0.6f;
+    prepare(s);
+    return s;
+  }();
+  return c;
+}
+
+void agreement(const char* name, SceneCase& c, size_t n_random, size_t n_path, uint64_t seed) {
+  std::vector<TestRay> rays = random_rays(c.scene, n_random, seed);
+  std::vector<TestRay> pr = path_rays(c.scene, *c.embree, n_path, seed + 1);
+  std::string rn = std::string(name) + " random", pn = std::string(name) + " path";
+  compare(rn.c_str(), c.scene, c.embree->tracer(), c.tracer, rays);
+  compare(pn.c_str(), c.scene, c.embree->tracer(), c.tracer, pr);
+  time_both(pn.c_str(), c.embree->tracer(), c.tracer, pr);
+}
+
+// ------------------------------------------------------------ tests
+
+TEST(Bvh, EmptyAndTinyScenes) {
+  Scene empty;
+  Bvh b0 = build_bvh(empty.view());
+  EXPECT_EQ(b0.nodes.size(), 0u);
+  BvhTracer t0 = make_bvh_tracer(b0, empty.view());
+  Hit h;
+  Ray r;
+  r.d = {0, 0, 1};
+  EXPECT_FALSE(t0.intersect(r, h));
+  EXPECT_FALSE(t0.occluded(r));
+
+  Scene one;
+  one.add_sphere({0, 0, 5}, 1.f, 0, nullptr, false);
+  Bvh b1 = build_bvh(one.view());
+  ASSERT_EQ(b1.nodes.size(), 1u);
+  BvhTracer t1 = make_bvh_tracer(b1, one.view());
+  ASSERT_TRUE(t1.intersect(r, h));
+  EXPECT_EQ(h.kind, PrimKind::Sphere);
+  EXPECT_NEAR(h.t, 4.f, 1e-6f);
+  EXPECT_TRUE(t1.occluded(r));
+  r.tmax = 3.9f;
+  EXPECT_FALSE(t1.occluded(r));
+  EXPECT_FALSE(t1.intersect(r, h));
+
+  Scene tri;
+  tri.add_mesh({{0, 0, 2}, {1, 0, 2}, {0, 1, 2}}, {}, {0, 1, 2}, 0, nullptr);
+  Bvh b2 = build_bvh(tri.view());
+  BvhTracer t2 = make_bvh_tracer(b2, tri.view());
+  r = Ray{};
+  r.o = {0.25f, 0.5f, 0.f};
+  r.d = {0, 0, 1};
+  ASSERT_TRUE(t2.intersect(r, h));
+  EXPECT_EQ(h.kind, PrimKind::Triangle);
+  EXPECT_FLOAT_EQ(h.t, 2.f);
+  EXPECT_FLOAT_EQ(h.u, 0.25f);  // barycentric of vertex 1
+  EXPECT_FLOAT_EQ(h.v, 0.5f);   // barycentric of vertex 2
+  r.d = {0, 0, -1};
+  EXPECT_FALSE(t2.intersect(r, h));  // behind the origin
+}
+
+// Rays through the vertices and edges of a grid of triangles (exactly
+// representable coordinates), from many directions: a watertight test
+// never lets one through.
+TEST(Bvh, WatertightOnSharedEdgesAndVertices) {
+  Scene s;
+  const int N = 16;
+  std::vector<Vec3> p;
+  std::vector<uint32_t> idx;
+  for (int j = 0; j <= N; ++j)
+    for (int i = 0; i <= N; ++i) p.push_back({float(i) * 0.25f, float(j) * 0.25f, 0.37f * float(i + j) * 0.25f});
+  for (int j = 0; j < N; ++j)
+    for (int i = 0; i < N; ++i) {
+      uint32_t a = j * (N + 1) + i, b = a + 1, c = a + N + 1, d = c + 1;
+      if ((i + j) & 1)
+        idx.insert(idx.end(), {a, b, d, a, d, c});
+      else
+        idx.insert(idx.end(), {a, b, c, b, d, c});
+    }
+  s.add_mesh(p, {}, idx, 0, nullptr);
+  Bvh bvh = build_bvh(s.view());
+  BvhTracer t = make_bvh_tracer(bvh, s.view());
+  Rng rng(3);
+  size_t misses = 0, total = 0;
+  for (int k = 0; k < 20000; ++k) {
+    // A target on a vertex, or a midpoint of a horizontal/vertical/diagonal edge.
+    int i = 1 + int(rng.next() % (N - 1)), j = 1 + int(rng.next() % (N - 1));
+    float fx = float(i), fy = float(j);
+    int m = int(rng.next() % 4);
+    if (m == 1) fx += 0.5f;
+    if (m == 2) fy += 0.5f;
+    if (m == 3) fx += 0.5f, fy += 0.5f;
+    Vec3 target{fx * 0.25f, fy * 0.25f, 0.37f * (fx + fy) * 0.25f};
+    Vec3 d = uniform_direction(rng);
+    if (k % 7 == 0) d = {0, 0, d.z < 0 ? -1.f : 1.f};
+    Ray r;
+    r.o = target - d * (1.f + 3.f * rng.uniform());
+    r.d = d;
+    Hit h;
+    ++total;
+    misses += !t.intersect(r, h);
+  }
+  EXPECT_EQ(misses, 0u) << "of " << total;
+}
+
+TEST(Bvh, CornellAgreesWithEmbree) {
+  SceneCase& c = cornell();
+  check_structure("cornell", c.scene, c.bvh, BvhBuildOptions{});
+  agreement("cornell", c, 150000, 150000, 11);
+}
+
+TEST(Bvh, SpheresAgreeWithEmbree) {
+  SceneCase& c = spheres();
+  check_structure("spheres", c.scene, c.bvh, BvhBuildOptions{});
+  agreement("spheres", c, 200000, 200000, 21);
+}
+
+TEST(Bvh, SponzaAgreesWithEmbree) {
+  SceneCase& c = sponza();
+  agreement("sponza", c, 300000, 300000, 31);
+}
+
+TEST(Bvh, SponzaStructureAndBuildFigures) {
+  SceneCase& c = sponza();
+  const Scene& s = c.scene;
+  BvhBuildOptions opt;
+  check_structure("sponza", s, c.bvh, opt);
+
+  // Build throughput, single-threaded and on all threads (best of 3).
+  auto best_build = [&](int threads, Bvh& out) {
+    BvhBuildOptions o = opt;
+    o.threads = threads;
+    double best = 1e30;
+    for (int k = 0; k < 3; ++k) {
+      out = build_bvh(s.view(), o);
+      best = std::min(best, out.build_seconds);
+    }
+    return best;
+  };
+  Bvh b1, bn;
+  int nthreads = tbb::this_task_arena::max_concurrency();
+  double t1 = best_build(1, b1), tn = best_build(0, bn);
+  double ntri = s.num_triangles();
+  double bytes_per_tri = double(bn.bytes()) / ntri;
+  std::printf("[sponza] %u triangles: build %.1f ms on 1 thread (%.2f Mtri/s/thread), %.1f ms on %d threads "
+              "(%.2f Mtri/s/thread)\n",
+              s.num_triangles(), t1 * 1e3, ntri / t1 * 1e-6, tn * 1e3, nthreads, ntri / tn / nthreads * 1e-6);
+  std::printf("[sponza] %zu nodes × %zu B + %zu refs × 4 B = %.1f bytes/triangle; %u leaves (%.2f prims/leaf), "
+              "depth %u\n",
+              bn.nodes.size(), sizeof(BvhNode), bn.prims.size(), bytes_per_tri, bn.num_leaves,
+              double(bn.prims.size()) / bn.num_leaves, bn.max_depth);
+  EXPECT_LE(bytes_per_tri, 64.0);
+
+  // The tree does not depend on the thread count.
+  ASSERT_EQ(b1.nodes.size(), bn.nodes.size());
+  EXPECT_EQ(0, std::memcmp(b1.nodes.data(), bn.nodes.data(), bn.nodes.size() * sizeof(BvhNode)));
+  EXPECT_EQ(b1.prims, bn.prims);
+
+  // SAH quality against an object-median split.
+  BvhBuildOptions med = opt;
+  med.median_split = true;
+  Bvh bm = build_bvh(s.view(), med);
+  check_structure("sponza median", s, bm, med);
+  double sah = bvh_sah_cost(bn), sah_med = bvh_sah_cost(bm);
+  std::printf("[sponza] SAH cost %.2f (binned SAH) vs %.2f (object median)\n", sah, sah_med);
+  EXPECT_LT(sah, sah_med);
+}
+
+TEST(Bvh, SpheresSahBelowMedian) {
+  SceneCase& c = spheres();
+  BvhBuildOptions med;
+  med.median_split = true;
+  Bvh bm = build_bvh(c.scene.view(), med);
+  check_structure("spheres median", c.scene, bm, med);
+  double sah = bvh_sah_cost(c.bvh), sah_med = bvh_sah_cost(bm);
+  std::printf("[spheres] SAH cost %.2f (binned SAH) vs %.2f (object median)\n", sah, sah_med);
+  EXPECT_LT(sah, sah_med);
+}
+
+// path_li<BvhTracer> on the CPU: the same radiance as path_li<EmbreeTracer>
+// for the same samples (equal pixel by pixel but for the rare rays where the
+// two tracers round differently).
+TEST(Bvh, PathTracerOnBvhMatchesEmbree) {
+  SceneCase& c = cornell();
+  SceneView view = c.scene.view();
+  SamplerDesc desc = make_sampler_desc(SamplerType::Independent, 64, 5);
+  EmbreeTracer et = c.embree->tracer();
+  const Camera& cam = c.scene.camera;
+  size_t n = 0, differ = 0;
+  double sum_e = 0, sum_b = 0;
+  for (int y = 0; y < cam.height; y += 2)
+    for (int x = 0; x < cam.width; x += 2)
+      for (uint32_t k = 0; k < 4; ++k) {
+        Color L[2];
+        for (int which = 0; which < 2; ++which) {
+          Sampler sampler;
+          sampler.start(desc, uint32_t(x), uint32_t(y), k);
+          Vec2 off = sample_filter(FilterKind::Box, sampler.next_2d());
+          Ray r = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+          uint64_t rays = 0;
+          L[which] = which == 0 ? path_li(view, et, r, sampler, c.scene.settings.integrator, rays)
+                                : path_li(view, c.tracer, r, sampler, c.scene.settings.integrator, rays);
+        }
+        ++n;
+        sum_e += average(L[0]);
+        sum_b += average(L[1]);
+        if (std::fabs(average(L[0]) - average(L[1])) > 1e-3f * std::max(1.f, average(L[0]))) ++differ;
+      }
+  std::printf("[cornell path_li] %zu samples: mean %.6f (Embree) vs %.6f (BVH); %zu samples differ\n", n, sum_e / n,
+              sum_b / n, differ);
+  EXPECT_LE(double(differ), 1e-3 * double(n));
+  EXPECT_NEAR(sum_b / n, sum_e / n, 1e-3 * sum_e / n);
+}
+
+}  // namespace
