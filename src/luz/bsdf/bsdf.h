@@ -7,18 +7,28 @@
 // sampled continuation). f() is the BSDF value itself, without the cosine.
 #pragma once
 
+#include "luz/bsdf/blinnphong.h"
+#include "luz/bsdf/common.h"
+#include "luz/bsdf/conductor.h"
+#include "luz/bsdf/dielectric.h"
+#include "luz/bsdf/plastic.h"
+#include "luz/bsdf/ward.h"
 #include "luz/math/vec.h"
 #include "luz/sampling/warp.h"
 
 namespace luz {
 
-enum class BsdfType : uint32_t { Diffuse, Phong };
-
-struct BsdfSample {
-  Vec3 wi;
-  Color weight;  // f(wo, wi) |cos θi| / pdf
-  float pdf = 0.f;
-  bool valid = false;
+enum class BsdfType : uint32_t {
+  Diffuse,
+  Phong,
+  SmoothConductor,
+  RoughConductor,
+  SmoothDielectric,
+  RoughDielectric,
+  ThinDielectric,
+  SmoothPlastic,
+  BlinnPhong,
+  Ward,
 };
 
 // Lambertian reflector: f = ρ/π.
@@ -99,14 +109,104 @@ struct PhongBsdf {
   }
 };
 
-// The tagged BSDF. `two_sided` mirrors the local frame so the back face
-// behaves like the front (Mitsuba's `twosided`); one-sided BSDFs are black
-// from behind. Reflection only for now: wo and wi on the same side.
-struct Bsdf {
+// One BSDF model: a tag and the model's parameters in a union (every model
+// is a small trivially copyable struct). f/pdf/sample here see wo exactly as
+// the Bsdf wrapper passes it (see Bsdf::orient).
+struct BsdfComponent {
   BsdfType type = BsdfType::Diffuse;
+  union {
+    DiffuseBsdf diffuse;
+    PhongBsdf phong;
+    SmoothConductorBsdf smooth_conductor;
+    RoughConductorBsdf rough_conductor;
+    SmoothDielectricBsdf smooth_dielectric;
+    RoughDielectricBsdf rough_dielectric;
+    ThinDielectricBsdf thin_dielectric;
+    SmoothPlasticBsdf smooth_plastic;
+    BlinnPhongBsdf blinn_phong;
+    WardBsdf ward;
+  };
+
+  // The models' members have default initialisers, so the union needs a
+  // constructor saying which one is live: a diffuse grey 0 until set.
+  LUZ_INLINE BsdfComponent() : diffuse() {}
+
+  // Models with a lobe through the surface handle both sides of it
+  // themselves; the others reflect only and see wo in the upper hemisphere.
+  LUZ_INLINE bool transmissive() const {
+    return type == BsdfType::SmoothDielectric || type == BsdfType::RoughDielectric ||
+           type == BsdfType::ThinDielectric;
+  }
+  // Only delta lobes: f() and pdf() are zero everywhere (no light sampling).
+  LUZ_INLINE bool delta_only() const {
+    return type == BsdfType::SmoothConductor || type == BsdfType::SmoothDielectric ||
+           type == BsdfType::ThinDielectric;
+  }
+  LUZ_INLINE bool has_delta() const { return delta_only() || type == BsdfType::SmoothPlastic; }
+
+  LUZ_INLINE Color f(Vec3 wo, Vec3 wi, TransportMode mode) const {
+    switch (type) {
+      case BsdfType::Phong: return phong.f(wo, wi);
+      case BsdfType::SmoothConductor: return smooth_conductor.f(wo, wi);
+      case BsdfType::RoughConductor: return rough_conductor.f(wo, wi);
+      case BsdfType::SmoothDielectric: return smooth_dielectric.f(wo, wi, mode);
+      case BsdfType::RoughDielectric: return rough_dielectric.f(wo, wi, mode);
+      case BsdfType::ThinDielectric: return thin_dielectric.f(wo, wi, mode);
+      case BsdfType::SmoothPlastic: return smooth_plastic.f(wo, wi);
+      case BsdfType::BlinnPhong: return blinn_phong.f(wo, wi);
+      case BsdfType::Ward: return ward.f(wo, wi);
+      default: return diffuse.f(wo, wi);
+    }
+  }
+  LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
+    switch (type) {
+      case BsdfType::Phong: return phong.pdf(wo, wi);
+      case BsdfType::SmoothConductor: return smooth_conductor.pdf(wo, wi);
+      case BsdfType::RoughConductor: return rough_conductor.pdf(wo, wi);
+      case BsdfType::SmoothDielectric: return smooth_dielectric.pdf(wo, wi);
+      case BsdfType::RoughDielectric: return rough_dielectric.pdf(wo, wi);
+      case BsdfType::ThinDielectric: return thin_dielectric.pdf(wo, wi);
+      case BsdfType::SmoothPlastic: return smooth_plastic.pdf(wo, wi);
+      case BsdfType::BlinnPhong: return blinn_phong.pdf(wo, wi);
+      case BsdfType::Ward: return ward.pdf(wo, wi);
+      default: return diffuse.pdf(wo, wi);
+    }
+  }
+  LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2, TransportMode mode) const {
+    switch (type) {
+      case BsdfType::Phong: return phong.sample(wo, u1, u2);
+      case BsdfType::SmoothConductor: return smooth_conductor.sample(wo, u1, u2);
+      case BsdfType::RoughConductor: return rough_conductor.sample(wo, u1, u2);
+      case BsdfType::SmoothDielectric: return smooth_dielectric.sample(wo, u1, u2, mode);
+      case BsdfType::RoughDielectric: return rough_dielectric.sample(wo, u1, u2, mode);
+      case BsdfType::ThinDielectric: return thin_dielectric.sample(wo, u1, u2, mode);
+      case BsdfType::SmoothPlastic: return smooth_plastic.sample(wo, u1, u2);
+      case BsdfType::BlinnPhong: return blinn_phong.sample(wo, u1, u2);
+      case BsdfType::Ward: return ward.sample(wo, u1, u2);
+      default: return diffuse.sample(wo, u1, u2);
+    }
+  }
+};
+
+// The tagged BSDF: one component (the base class: `type`, `diffuse`,
+// `phong`, ... name it), or a blend of two (Mitsuba's `blendbsdf`):
+//   f = (1 - w) f_0 + w f_1,  pdf = (1 - w) pdf_0 + w pdf_1,
+// sampled by choosing component 1 with probability w (u1 is rescaled and
+// reused). No recursion and no pointers: the second component is a flat
+// slot, and a blend of blends is not representable.
+//
+// `two_sided` mirrors the local frame for reflection-only components so the
+// back face behaves like the front (Mitsuba's `twosided`); one-sided ones are
+// black from behind. Transmissive components (dielectrics) see wo as it is,
+// on either side.
+//
+// Every sample carries BsdfSample::delta / transmission / eta (common.h).
+// f() and pdf() never include delta lobes.
+struct Bsdf : BsdfComponent {
   bool two_sided = false;
-  DiffuseBsdf diffuse;
-  PhongBsdf phong;
+  bool blend = false;
+  float blend_weight = 0.f;  // w: the share of `second`
+  BsdfComponent second;
 
   // Brings wo to the upper hemisphere; false if the surface is black from there.
   LUZ_INLINE bool orient(Vec3& wo, float& flip) const {
@@ -119,40 +219,69 @@ struct Bsdf {
     return wo.z != 0.f;
   }
 
-  LUZ_INLINE Color f(Vec3 wo, Vec3 wi) const {
+  LUZ_INLINE Color component_f(const BsdfComponent& c, Vec3 wo, Vec3 wi, TransportMode mode) const {
+    if (c.transmissive()) return c.f(wo, wi, mode);
     float flip;
     if (!orient(wo, flip)) return {};
     wi.z *= flip;
     if (wi.z <= 0.f) return {};
-    switch (type) {
-      case BsdfType::Phong: return phong.f(wo, wi);
-      default: return diffuse.f(wo, wi);
-    }
+    return c.f(wo, wi, mode);
   }
-
-  LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
+  LUZ_INLINE float component_pdf(const BsdfComponent& c, Vec3 wo, Vec3 wi) const {
+    if (c.transmissive()) return c.pdf(wo, wi);
     float flip;
     if (!orient(wo, flip)) return 0.f;
     wi.z *= flip;
     if (wi.z <= 0.f) return 0.f;
-    switch (type) {
-      case BsdfType::Phong: return phong.pdf(wo, wi);
-      default: return diffuse.pdf(wo, wi);
-    }
+    return c.pdf(wo, wi);
   }
-
-  // u1 picks a lobe, u2 the direction within it.
-  LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2) const {
+  LUZ_INLINE BsdfSample component_sample(const BsdfComponent& c, Vec3 wo, float u1, Vec2 u2,
+                                         TransportMode mode) const {
+    if (c.transmissive()) return c.sample(wo, u1, u2, mode);
     float flip;
     if (!orient(wo, flip)) return {};
-    BsdfSample s;
-    switch (type) {
-      case BsdfType::Phong: s = phong.sample(wo, u1, u2); break;
-      default: s = diffuse.sample(wo, u1, u2); break;
-    }
+    BsdfSample s = c.sample(wo, u1, u2, mode);
     s.wi.z *= flip;
     return s;
   }
+
+  LUZ_INLINE Color f(Vec3 wo, Vec3 wi, TransportMode mode = TransportMode::Radiance) const {
+    if (!blend) return component_f(*this, wo, wi, mode);
+    return component_f(*this, wo, wi, mode) * (1.f - blend_weight) +
+           component_f(second, wo, wi, mode) * blend_weight;
+  }
+
+  LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
+    if (!blend) return component_pdf(*this, wo, wi);
+    return component_pdf(*this, wo, wi) * (1.f - blend_weight) + component_pdf(second, wo, wi) * blend_weight;
+  }
+
+  // u1 picks a lobe, u2 the direction within it.
+  LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2, TransportMode mode = TransportMode::Radiance) const {
+    if (!blend) return component_sample(*this, wo, u1, u2, mode);
+    float w = blend_weight;
+    bool pick_second = u1 < w;
+    float sel = pick_second ? w : 1.f - w;
+    float u1r = pick_second ? u1 / w : (u1 - w) / (1.f - w);
+    u1r = min(max(u1r, 0.f), kOneMinusEpsilon);
+    BsdfSample s = component_sample(pick_second ? second : *this, wo, u1r, u2, mode);
+    if (!s.valid) return s;
+    if (s.delta) {
+      s.pdf *= sel;  // weight: (sel · amplitude) / (sel · probability), unchanged
+      return s;
+    }
+    s.pdf = pdf(wo, s.wi);
+    if (!(s.pdf > 0.f)) {
+      s.valid = false;
+      return s;
+    }
+    s.weight = f(wo, s.wi, mode) * (fabsf(s.wi.z) / s.pdf);
+    return s;
+  }
+
+  LUZ_INLINE bool delta_only() const { return BsdfComponent::delta_only() && (!blend || second.delta_only()); }
+  LUZ_INLINE bool has_delta() const { return BsdfComponent::has_delta() || (blend && second.has_delta()); }
+  LUZ_INLINE bool has_transmission() const { return transmissive() || (blend && second.transmissive()); }
 
   LUZ_INLINE static Bsdf make_diffuse(Color r, bool two_sided = false) {
     Bsdf b;
@@ -169,6 +298,85 @@ struct Bsdf {
     b.phong.ks = ks;
     b.phong.exponent = n;
     return b;
+  }
+  // Mitsuba `conductor`: eta, k per channel (fresnel.h presets), specular_reflectance.
+  LUZ_INLINE static Bsdf make_smooth_conductor(Color eta, Color k, Color specular = {1.f, 1.f, 1.f},
+                                               bool two_sided = false) {
+    Bsdf b;
+    b.type = BsdfType::SmoothConductor;
+    b.two_sided = two_sided;
+    b.smooth_conductor = SmoothConductorBsdf{param(eta), param(k), param(specular)};
+    return b;
+  }
+  // Mitsuba `roughconductor`: distribution, alpha_u, alpha_v, eta, k, specular_reflectance.
+  LUZ_INLINE static Bsdf make_rough_conductor(MicrofacetType t, float alpha_u, float alpha_v, Color eta, Color k,
+                                              Color specular = {1.f, 1.f, 1.f}, bool two_sided = false) {
+    Bsdf b;
+    b.type = BsdfType::RoughConductor;
+    b.two_sided = two_sided;
+    b.rough_conductor =
+        RoughConductorBsdf{t, scalar_param(alpha_u), scalar_param(alpha_v), param(eta), param(k), param(specular)};
+    return b;
+  }
+  // Mitsuba `dielectric`: int_ior, ext_ior, specular_reflectance, specular_transmittance.
+  LUZ_INLINE static Bsdf make_smooth_dielectric(float int_ior, float ext_ior, Color refl = {1.f, 1.f, 1.f},
+                                                Color trans = {1.f, 1.f, 1.f}) {
+    Bsdf b;
+    b.type = BsdfType::SmoothDielectric;
+    b.smooth_dielectric = SmoothDielectricBsdf{int_ior / ext_ior, param(refl), param(trans)};
+    return b;
+  }
+  // Mitsuba `thindielectric`.
+  LUZ_INLINE static Bsdf make_thin_dielectric(float int_ior, float ext_ior, Color refl = {1.f, 1.f, 1.f},
+                                              Color trans = {1.f, 1.f, 1.f}) {
+    Bsdf b;
+    b.type = BsdfType::ThinDielectric;
+    b.thin_dielectric = ThinDielectricBsdf{int_ior / ext_ior, param(refl), param(trans)};
+    return b;
+  }
+  // Mitsuba `roughdielectric`.
+  LUZ_INLINE static Bsdf make_rough_dielectric(MicrofacetType t, float alpha_u, float alpha_v, float int_ior,
+                                               float ext_ior, Color refl = {1.f, 1.f, 1.f},
+                                               Color trans = {1.f, 1.f, 1.f}) {
+    Bsdf b;
+    b.type = BsdfType::RoughDielectric;
+    b.rough_dielectric = RoughDielectricBsdf{t,       scalar_param(alpha_u), scalar_param(alpha_v), int_ior / ext_ior,
+                                             param(refl), param(trans)};
+    return b;
+  }
+  // Mitsuba `plastic` (nonlinear = false). Host only (integrates F_dr).
+  static Bsdf make_smooth_plastic(Color diffuse, Color specular = {1.f, 1.f, 1.f}, float int_ior = 1.49f,
+                                  float ext_ior = 1.000277f, bool two_sided = false) {
+    Bsdf b;
+    b.type = BsdfType::SmoothPlastic;
+    b.two_sided = two_sided;
+    b.smooth_plastic = SmoothPlasticBsdf::make(diffuse, specular, int_ior, ext_ior);
+    return b;
+  }
+  LUZ_INLINE static Bsdf make_blinn_phong(Color kd, Color ks, float n, bool two_sided = false) {
+    Bsdf b;
+    b.type = BsdfType::BlinnPhong;
+    b.two_sided = two_sided;
+    b.blinn_phong = BlinnPhongBsdf{param(kd), param(ks), scalar_param(n)};
+    return b;
+  }
+  // Mitsuba 0.5 `ward` (variants "ward" and "balanced").
+  LUZ_INLINE static Bsdf make_ward(WardVariant v, Color kd, Color ks, float alpha_u, float alpha_v,
+                                   bool two_sided = false) {
+    Bsdf b;
+    b.type = BsdfType::Ward;
+    b.two_sided = two_sided;
+    b.ward = WardBsdf{v, param(kd), param(ks), scalar_param(alpha_u), scalar_param(alpha_v)};
+    return b;
+  }
+  // Mitsuba `blendbsdf`: (1 - weight) a + weight b. a and b must not be blends
+  // themselves; two_sided is taken from a.
+  LUZ_INLINE static Bsdf make_blend(const Bsdf& a, const Bsdf& b, float weight) {
+    Bsdf r = a;
+    r.blend = true;
+    r.blend_weight = clamp(weight, 0.f, 1.f);
+    r.second = b;  // slices off b's wrapper fields
+    return r;
   }
 };
 
