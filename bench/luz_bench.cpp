@@ -3,8 +3,9 @@
 // bounce and shadow rays in the proportions the integrator produces them),
 // measured side by side in one run.
 //
-//   luz_bench SCENE [-D name=value]... [--threads N] [--repeat K] [--label L]
-// Prints one human-readable block and, last, one markdown table row.
+//   luz_bench SCENE [-D name=value]... [--spp N] [--threads N] [--repeat K] [--label L]
+// Also Luz's own BVH on the same rays (host traversal), and its build speed
+// and size. Prints one human-readable block and, last, one markdown table row.
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -16,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "luz/accel/bvh_build.h"
 #include "luz/accel/embree_tracer.h"
 #include "luz/device/cpu/render.h"
 #include "luz/io/error.h"
@@ -49,7 +51,7 @@ double now() { return std::chrono::duration<double>(std::chrono::steady_clock::n
 int main(int argc, char** argv) {
   std::string scene_path, label;
   luz::Defines defines;
-  int threads = 0, repeat = 3;
+  int threads = 0, repeat = 3, spp = 0;
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "-D" && i + 1 < argc) {
@@ -58,6 +60,8 @@ int main(int argc, char** argv) {
       defines[d.substr(0, eq)] = eq == std::string::npos ? "" : d.substr(eq + 1);
     } else if (a == "--threads" && i + 1 < argc) {
       threads = std::atoi(argv[++i]);
+    } else if (a == "--spp" && i + 1 < argc) {
+      spp = std::atoi(argv[++i]);
     } else if (a == "--repeat" && i + 1 < argc) {
       repeat = std::max(1, std::atoi(argv[++i]));
     } else if (a == "--label" && i + 1 < argc) {
@@ -75,6 +79,7 @@ int main(int argc, char** argv) {
   }
   try {
     luz::Scene scene = luz::load_scene(scene_path, defines);
+    if (spp > 0) scene.settings.spp = uint32_t(spp);
     if (label.empty()) label = scene_path;
     const luz::Camera& cam = scene.camera;
 
@@ -125,6 +130,40 @@ int main(int argc, char** argv) {
     }
     double raw_rps = rays.size() / raw_best;
 
+    // 3. Luz's own BVH: build speed (1 thread, and all), size, and host
+    //    traversal of the same recorded rays.
+    double build1 = 1e30, build_all = 1e30;
+    luz::Bvh bvh;
+    for (int k = 0; k < repeat; ++k) {
+      luz::BvhBuildOptions o;
+      o.threads = 1;
+      double t0 = now();
+      bvh = luz::build_bvh(view, o);
+      build1 = std::min(build1, now() - t0);
+      o.threads = 0;
+      t0 = now();
+      arena.execute([&] { bvh = luz::build_bvh(view, o); });
+      build_all = std::min(build_all, now() - t0);
+    }
+    const unsigned nthreads = unsigned(threads > 0 ? threads : tbb::this_task_arena::max_concurrency());
+    luz::BvhTracer bvh_tracer = luz::make_bvh_tracer(bvh, view);
+    double bvh_best = 1e30;
+    for (int k = 0; k < repeat; ++k) {
+      std::vector<unsigned char> sink(rays.size());
+      double t0 = now();
+      arena.execute([&] {
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+          for (size_t i = r.begin(); i != r.end(); ++i) {
+            luz::Hit h;
+            sink[i] = rays[i].shadow ? bvh_tracer.occluded(rays[i].ray) : bvh_tracer.intersect(rays[i].ray, h);
+          }
+        });
+      });
+      bvh_best = std::min(bvh_best, now() - t0);
+    }
+    double bvh_rps = rays.size() / bvh_best;
+    double prims = double(scene.num_triangles() + scene.spheres.size());
+
     std::printf("scene        %s (%d×%d, %u spp, max_depth %d, %u threads)\n", label.c_str(), cam.width, cam.height,
                 scene.settings.spp, scene.settings.integrator.max_depth,
                 unsigned(threads > 0 ? threads : tbb::this_task_arena::max_concurrency()));
@@ -133,8 +172,15 @@ int main(int argc, char** argv) {
     std::printf("raw embree   %.2f Mrays/s on %zu recorded rays (%.0f%% shadow)\n", raw_rps * 1e-6, rays.size(),
                 100.0 * shadow / rays.size());
     std::printf("ratio        path tracer rays/s = %.2f × raw Embree rays/s\n", rps / raw_rps);
-    std::printf("| %s | %d×%d | %u | %.3f | %.2f | %.2f | %.2f |\n", label.c_str(), cam.width, cam.height,
-                scene.settings.spp, sps * 1e-6, rps * 1e-6, raw_rps * 1e-6, rps / raw_rps);
+    std::printf("luz bvh      %.2f Mrays/s host traversal of the same rays (%.2f × Embree)\n", bvh_rps * 1e-6,
+                bvh_rps / raw_rps);
+    std::printf("bvh build    %.0f primitives: %.1f ms on 1 thread (%.2f Mprims/s), %.1f ms on %u (%.2f Mprims/s per "
+                "thread); %zu nodes, %.1f bytes/primitive\n",
+                prims, build1 * 1e3, prims / build1 * 1e-6, build_all * 1e3, nthreads,
+                prims / build_all / nthreads * 1e-6, bvh.nodes.size(), double(bvh.bytes()) / std::max(prims, 1.0));
+    std::printf("| %s | %d×%d | %u | %.3f | %.2f | %.2f | %.2f | %.2f | %.2f | %.1f |\n", label.c_str(), cam.width,
+                cam.height, scene.settings.spp, sps * 1e-6, rps * 1e-6, raw_rps * 1e-6, rps / raw_rps, bvh_rps * 1e-6,
+                prims / build1 * 1e-6, double(bvh.bytes()) / std::max(prims, 1.0));
     return 0;
   } catch (const luz::InputError& e) {
     std::fprintf(stderr, "luz_bench: error: %s\n", e.what());
