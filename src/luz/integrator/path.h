@@ -9,6 +9,33 @@
 // ray's origin, so max_depth 1 shows emitters only, 2 adds direct light.
 // max_depth < 0 means unbounded (Russian roulette ends the path).
 //
+// Delta lobes (BsdfSample::delta: smooth mirrors, glass, the coat of smooth
+// plastic). No light sample can find their one direction, so an emitter hit
+// through a delta sample gets MIS weight 1 (the discrete probability in
+// s.pdf never enters the power heuristic), and at a vertex whose BSDF is
+// delta_only() next-event estimation is skipped (f and pdf are 0 there); its
+// sampler dimensions stay reserved, so dimension d still means the same
+// thing at every vertex. The `light` estimator (NEE only) counts an emitter
+// hit with weight 0 after a non-delta sample (NEE at that vertex already
+// counted it) and with weight 1 after a delta sample (Mitsuba's convention):
+// every path is then counted exactly once, so it stays unbiased with
+// mirrors and glass, caustics seen through delta chains included. On scenes
+// without delta lobes it is NEE only, as before.
+//
+// Transmission (BsdfSample::transmission): the continuation starts on the
+// far side of the geometric surface (its own robust offset) and must cross
+// it; a reflected one must stay on the viewer's side. NEE at a surface with
+// a transmissive BSDF sends shadow rays to either side, each offset to its
+// side, and accepts a light direction only if the geometric and shading
+// normals agree on whether it is reflection or transmission.
+//
+// Russian roulette, as Mitsuba 3: the survival probability is
+// q = min(max(β) · η_acc², 0.95), η_acc the product of BsdfSample::eta
+// (η on wi's side / η on wo's side) along the path. Radiance-mode BTDF
+// weights carry 1/η² (dielectric.h), so β · η_acc² is the throughput without
+// the solid-angle compression: a path entering glass is not killed more
+// often merely because its radiance weight dropped by 1/η².
+//
 // The Tracer is a template parameter with two methods,
 //   bool intersect(const Ray&, Hit&) const;  // closest hit
 //   bool occluded(const Ray&) const;         // any hit, within ray.tmax
@@ -39,16 +66,23 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
   Color L{}, beta{1.f, 1.f, 1.f};
   const bool use_nee = params.type != IntegratorType::Bsdf;
   const bool use_mis = params.type == IntegratorType::Path;
-  float prev_pdf = 0.f;  // solid-angle pdf of the BSDF sample that made `ray`
+  float prev_pdf = 0.f;       // solid-angle pdf of the BSDF sample that made `ray`
+  bool prev_delta = false;    // that sample came from a delta lobe
+  float eta_acc = 1.f;        // product of BsdfSample::eta (Russian roulette)
   Vec3 prev_p = ray.o;
 
   for (int depth = 1;; ++depth) {
-    sampler.dim = kCameraDims + uint32_t(depth - 1) * kDimsPerVertex;
+    const uint32_t base_dim = kCameraDims + uint32_t(depth - 1) * kDimsPerVertex;
+    sampler.dim = base_dim;
     Hit hit;
     ++rays;
     bool found = tracer.intersect(ray, hit);
 
     // Emission reached by the previous BSDF sample (or seen by the camera).
+    // Its weight: 1 for the camera ray, for the bsdf estimator and after a
+    // delta sample; otherwise 0 for the light estimator (NEE counted it) and
+    // the power heuristic for path.
+    const bool weigh = depth > 1 && !prev_delta && params.type != IntegratorType::Bsdf;
     Color Le{};
     float light_pdf = 0.f;
     Interaction it;
@@ -61,15 +95,15 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
       it = scene.interaction(ray, hit);
       if (it.emitter >= 0) {
         Le = scene.emitted(it, -ray.d);
-        if (!is_black(Le) && depth > 1 && use_mis)
+        if (!is_black(Le) && weigh && use_mis)
           light_pdf = scene.emitter_pmf[it.emitter] * scene.emitter_pdf(uint32_t(it.emitter), prev_p, it, ray.d, hit.t);
       }
     }
     if (!is_black(Le)) {
       float w = 1.f;
-      if (depth > 1) {
+      if (weigh) {
         if (params.type == IntegratorType::Light) w = 0.f;
-        else if (use_mis) w = power_heuristic(prev_pdf, light_pdf);
+        else w = power_heuristic(prev_pdf, light_pdf);
       }
       L += beta * Le * w;
     }
@@ -79,14 +113,15 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
     const Bsdf& bsdf = scene.materials[it.material];
     Frame frame = Frame::from_normal(it.ns);
     Vec3 wo = frame.to_local(-ray.d);
-    // BSDFs here reflect only: every ray leaving this vertex (shadow ray and
-    // continuation) starts on the viewer's side of the geometric surface, so
-    // one robust offset origin serves both.
+    // Rays leaving this vertex start on the side of the geometric surface
+    // they go to: the viewer's side (n_out) for reflection, the other for
+    // transmission, each with its own robust offset.
     const Vec3 n_out = dot(ray.d, it.ng) < 0.f ? it.ng : -it.ng;
     const Vec3 origin = offset_ray_origin(it.p, n_out);
+    const bool transmissive = bsdf.has_transmission();
 
-    // Next-event estimation.
-    if (use_nee && scene.num_emitters > 0) {
+    // Next-event estimation (not at delta-only vertices: f is 0 there).
+    if (use_nee && scene.num_emitters > 0 && !bsdf.delta_only()) {
       float u_light = sampler.next_1d();
       Vec2 u_light2 = sampler.next_2d();
       uint32_t e = scene.select_emitter(u_light);
@@ -94,10 +129,13 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
       if (ls.pdf > 0.f) {
         Vec3 wi = frame.to_local(ls.wi);
         Color f = bsdf.f(wo, wi);
-        // Geometric side test too: no light through the surface itself.
-        if (!is_black(f) && dot(ls.wi, n_out) > 0.f) {
+        // Geometric side test too: no light through a reflecting surface, and
+        // for transmissive ones the geometric and shading sides must agree.
+        const float side = dot(ls.wi, n_out);
+        const bool geo_ok = transmissive ? (side > 0.f) == (wo.z * wi.z > 0.f) && side != 0.f : side > 0.f;
+        if (!is_black(f) && geo_ok) {
           Ray shadow;
-          shadow.o = origin;
+          shadow.o = side > 0.f ? origin : offset_ray_origin(it.p, -n_out);
           shadow.d = ls.wi;
           if (ls.dist < kInfinity) {
             Vec3 target = offset_ray_origin(ls.p, dot(ls.n, ls.wi) < 0.f ? ls.n : -ls.n);
@@ -118,26 +156,30 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
     }
 
     // BSDF sampling (its dimensions are fixed whether or not NEE ran).
-    sampler.dim = kCameraDims + uint32_t(depth - 1) * kDimsPerVertex + 2;
+    sampler.dim = base_dim + 2;
     float u_bsdf = sampler.next_1d();
     Vec2 u_bsdf2 = sampler.next_2d();
     BsdfSample bs = bsdf.sample(wo, u_bsdf, u_bsdf2);
     if (!bs.valid) break;
     Vec3 wi_world = frame.to_world(bs.wi);
-    // Reject continuations that cross the geometric surface the wrong way.
-    if (dot(wi_world, n_out) <= 0.f) break;
+    // Reject continuations that cross the geometric surface the wrong way:
+    // reflection stays on the viewer's side, transmission crosses.
+    const float side = dot(wi_world, n_out);
+    if (bs.transmission ? !(side < 0.f) : !(side > 0.f)) break;
     beta *= bs.weight;
     prev_pdf = bs.pdf;
+    prev_delta = bs.delta;
     prev_p = it.p;
+    if (bs.transmission) eta_acc *= bs.eta;
 
-    // Russian roulette on the throughput.
+    // Russian roulette on the throughput without the η² of refraction.
     if (depth >= params.rr_depth) {
       float u_rr = sampler.next_1d();
-      float q = min(max_component(beta), 0.95f);
+      float q = min(max_component(beta) * eta_acc * eta_acc, 0.95f);
       if (!(u_rr < q)) break;
       beta = beta / q;
     }
-    ray.o = origin;
+    ray.o = bs.transmission ? offset_ray_origin(it.p, -n_out) : origin;
     ray.d = wi_world;
     ray.tmax = kInfinity;
   }

@@ -1,7 +1,9 @@
 // Mitsuba 3 XML scenes. Supported: <default>/$name, ref/id, integrator
 // path|bsdf|light, sensor perspective, samplers, hdrfilm with box/tent/gaussian
 // rfilter, shapes obj/rectangle/cube/sphere, area and constant emitters, bsdfs
-// diffuse/twosided/phong. Anything else is an error naming file and line:
+// diffuse, phong, blinnphong (Luz's own), conductor, roughconductor,
+// dielectric, roughdielectric, thindielectric, plastic (nonlinear = false),
+// ward (ward, balanced), blendbsdf, twosided. Anything else is an error naming file and line:
 // a renderer that silently ignores what it does not know renders the wrong image.
 #include <pugixml.hpp>
 
@@ -445,24 +447,112 @@ class MitsubaParser {
     return c;
   }
 
+  // ---- bsdf parameters shared by several plugins ----
+  MicrofacetType distribution(pugi::xml_node n, Props& p) {
+    std::string d = p.get_string("distribution", "beckmann");
+    if (d == "beckmann") return MicrofacetType::Beckmann;
+    if (d == "ggx") return MicrofacetType::GGX;
+    error(n, "unknown distribution '" + d + "' (supported: beckmann, ggx)");
+  }
+  // Mitsuba 3: `alpha` (isotropic), or `alpha_u` and `alpha_v`; default 0.1.
+  void roughness(pugi::xml_node n, Props& p, float& au, float& av) {
+    p.get_bool("sample_visible", true);  // a sampling strategy only: the image's expectation is the same
+    bool iso = p.has("alpha"), aniso = p.has("alpha_u") || p.has("alpha_v");
+    if (iso && aniso) error(n, "give either 'alpha' or 'alpha_u' and 'alpha_v', not both");
+    if (aniso && !(p.has("alpha_u") && p.has("alpha_v"))) error(n, "'alpha_u' and 'alpha_v' must be given together");
+    double a = p.get_float("alpha", 0.1), u = p.get_float("alpha_u", a), v = p.get_float("alpha_v", a);
+    if (!(u > 0) || !(v > 0)) error(n, "roughness (alpha, alpha_u, alpha_v) must be positive");
+    au = float(u);
+    av = float(v);
+  }
+  // An index of refraction: a number or one of Mitsuba's named presets.
+  float ior(pugi::xml_node n, Props& p, const char* name, const char* def) {
+    pugi::xml_node c = p.get(name, {"float", "integer", "string"});
+    float v = 0.f;
+    if (!c) {
+      find_ior_preset(def, v);
+      return v;
+    }
+    std::string text = attr(c, "value");
+    if (std::string(c.name()) == "string") {
+      if (!find_ior_preset(text.c_str(), v)) error(c, "unknown index of refraction preset '" + text + "'");
+    } else {
+      v = float(number(c, text));
+    }
+    if (!(v > 0.f)) error(n, std::string("'") + name + "' must be positive");
+    return v;
+  }
+  // Conductor: `material` preset, or `eta` and `k` (Mitsuba 3: default
+  // material "none", the perfect mirror; eta defaults to 0 and k to 1 when
+  // only one is given).
+  void conductor_ior(pugi::xml_node n, Props& p, Color& eta, Color& k) {
+    bool explicit_ior = p.has("eta") || p.has("k");
+    if (explicit_ior && p.has("material")) error(n, "give either 'material' or 'eta' and 'k', not both");
+    if (explicit_ior) {
+      eta = p.get_color("eta", {0.f, 0.f, 0.f});
+      k = p.get_color("k", {1.f, 1.f, 1.f});
+      for (int c = 0; c < 3; ++c)
+        if (eta[c] < 0.f || k[c] < 0.f) error(n, "conductor 'eta' and 'k' must not be negative");
+      return;
+    }
+    std::string m = p.get_string("material", "none");
+    if (!find_conductor_preset(m.c_str(), eta, k)) {
+      std::string names;
+      for (const ConductorPreset& c : kConductorPresets) names += std::string(names.empty() ? "" : ", ") + c.name;
+      error(n, "unknown conductor material '" + m + "' (supported: " + names + ")");
+    }
+  }
+  void check_sum(pugi::xml_node n, Color kd, Color ks) {
+    for (int k = 0; k < 3; ++k)
+      if (kd[k] + ks[k] > 1.f)
+        error(n, "diffuse_reflectance + specular_reflectance > 1: the material would create energy");
+  }
+
+  // One bsdf element (or a <ref> to one) nested in another.
+  Bsdf nested_bsdf(pugi::xml_node c) {
+    return std::string(c.name()) == "ref" ? scene_.materials[resolve_ref(c)] : parse_bsdf_value(c);
+  }
+  std::vector<pugi::xml_node> nested_bsdf_nodes(pugi::xml_node n) {
+    std::vector<pugi::xml_node> inner;
+    for (pugi::xml_node c : n.children())
+      if (c.type() == pugi::node_element && (std::string(c.name()) == "bsdf" || std::string(c.name()) == "ref"))
+        inner.push_back(c);
+    return inner;
+  }
+
   Bsdf parse_bsdf_value(pugi::xml_node n) {
     std::string type = attr(n, "type");
     if (type == "twosided") {
       check_children(n, {"bsdf", "ref"});
       Props p(this, n);
       p.check_all_used();
-      std::vector<pugi::xml_node> inner;
-      for (pugi::xml_node c : n.children())
-        if (c.type() == pugi::node_element && (std::string(c.name()) == "bsdf" || std::string(c.name()) == "ref"))
-          inner.push_back(c);
+      std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
       if (inner.size() != 1) error(n, "twosided needs exactly one nested bsdf");
       if (std::string(inner[0].name()) == "bsdf" && attr(inner[0], "type") == "twosided")
         error(inner[0], "twosided cannot wrap another twosided");
-      Bsdf b = std::string(inner[0].name()) == "ref" ? scene_.materials[resolve_ref(inner[0])]
-                                                     : parse_bsdf_value(inner[0]);
+      Bsdf b = nested_bsdf(inner[0]);
+      // Mitsuba 3's twosided refuses transmissive materials ("Only materials
+      // without a transmission component can be nested!"): dielectrics are
+      // two-sided by nature.
+      if (b.has_transmission()) error(n, "twosided cannot wrap a material that transmits light (a dielectric)");
       b.two_sided = true;
       return b;
     }
+    if (type == "blendbsdf") {
+      check_children(n, {"bsdf", "ref"});
+      Props p(this, n);
+      double w = p.get_float("weight", 0.5);
+      p.check_all_used();
+      if (!(w >= 0 && w <= 1)) error(n, "blendbsdf 'weight' must lie in [0, 1]");
+      std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
+      if (inner.size() != 2) error(n, "blendbsdf needs exactly two nested bsdfs");
+      Bsdf a = nested_bsdf(inner[0]), b = nested_bsdf(inner[1]);
+      if (a.blend || b.blend) error(n, "a blendbsdf inside a blendbsdf is not supported");
+      if (a.two_sided != b.two_sided)
+        error(n, "the two bsdfs of a blendbsdf must both be twosided or both not (wrap the blend in twosided)");
+      return Bsdf::make_blend(a, b, float(w));
+    }
+    if (type == "roughplastic") error(n, "bsdf 'roughplastic' is not supported yet");
     check_children(n, {});
     Props p(this, n);
     Bsdf b;
@@ -473,12 +563,64 @@ class MitsubaParser {
       Color ks = checked_reflectance(n, p, "specular_reflectance", {0.2f, 0.2f, 0.2f});
       double e = p.get_float("exponent", 30.0);
       if (!(e >= 0)) error(n, "exponent must be ≥ 0");
-      for (int k = 0; k < 3; ++k)
-        if (kd[k] + ks[k] > 1.f)
-          error(n, "diffuse_reflectance + specular_reflectance > 1: the material would create energy");
+      check_sum(n, kd, ks);
       b = Bsdf::make_phong(kd, ks, float(e), false);
+    } else if (type == "blinnphong") {
+      Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
+      Color ks = checked_reflectance(n, p, "specular_reflectance", {0.2f, 0.2f, 0.2f});
+      double e = p.get_float("exponent", 30.0);
+      if (!(e >= 0)) error(n, "exponent must be ≥ 0");
+      check_sum(n, kd, ks);
+      b = Bsdf::make_blinn_phong(kd, ks, float(e), false);
+    } else if (type == "conductor" || type == "roughconductor") {
+      Color eta, k;
+      conductor_ior(n, p, eta, k);
+      Color spec = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
+      if (type == "conductor") {
+        b = Bsdf::make_smooth_conductor(eta, k, spec, false);
+      } else {
+        MicrofacetType d = distribution(n, p);
+        float au, av;
+        roughness(n, p, au, av);
+        b = Bsdf::make_rough_conductor(d, au, av, eta, k, spec, false);
+      }
+    } else if (type == "dielectric" || type == "roughdielectric" || type == "thindielectric") {
+      float int_ior = ior(n, p, "int_ior", "bk7"), ext_ior = ior(n, p, "ext_ior", "air");
+      Color r = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
+      Color t = checked_reflectance(n, p, "specular_transmittance", {1.f, 1.f, 1.f});
+      if (type == "dielectric") {
+        b = Bsdf::make_smooth_dielectric(int_ior, ext_ior, r, t);
+      } else if (type == "thindielectric") {
+        b = Bsdf::make_thin_dielectric(int_ior, ext_ior, r, t);
+      } else {
+        MicrofacetType d = distribution(n, p);
+        float au, av;
+        roughness(n, p, au, av);
+        if (int_ior == ext_ior) error(n, "roughdielectric needs int_ior != ext_ior (nothing would refract)");
+        b = Bsdf::make_rough_dielectric(d, au, av, int_ior, ext_ior, r, t);
+      }
+    } else if (type == "plastic") {
+      Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
+      Color ks = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
+      float int_ior = ior(n, p, "int_ior", "polypropylene"), ext_ior = ior(n, p, "ext_ior", "air");
+      if (p.get_bool("nonlinear", false)) error(n, "plastic with nonlinear = true is not supported yet");
+      b = Bsdf::make_smooth_plastic(kd, ks, int_ior, ext_ior, false);
+    } else if (type == "ward") {
+      std::string v = p.get_string("variant", "balanced");
+      WardVariant variant = WardVariant::Balanced;
+      if (v == "ward") variant = WardVariant::Ward;
+      else if (v == "ward-duer") error(n, "ward variant 'ward-duer' is not supported yet (supported: ward, balanced)");
+      else if (v != "balanced") error(n, "unknown ward variant '" + v + "' (supported: ward, balanced)");
+      double au = p.get_float("alpha_u", 0.1), av = p.get_float("alpha_v", 0.1);
+      if (!(au > 0) || !(av > 0)) error(n, "roughness (alpha_u, alpha_v) must be positive");
+      Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
+      Color ks = checked_reflectance(n, p, "specular_reflectance", {0.2f, 0.2f, 0.2f});
+      check_sum(n, kd, ks);
+      b = Bsdf::make_ward(variant, kd, ks, float(au), float(av), false);
     } else {
-      error(n, "unknown bsdf '" + type + "' (supported: diffuse, phong, twosided)");
+      error(n, "unknown bsdf '" + type +
+                   "' (supported: diffuse, phong, blinnphong, conductor, roughconductor, dielectric, "
+                   "roughdielectric, thindielectric, plastic, ward, blendbsdf, twosided)");
     }
     p.check_all_used();
     return b;

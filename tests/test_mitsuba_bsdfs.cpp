@@ -1,0 +1,281 @@
+// The Mitsuba loader's BSDF plugins beyond diffuse/phong: conductor,
+// roughconductor, dielectric, roughdielectric, thindielectric, plastic,
+// blendbsdf, ward, blinnphong (Luz's own), twosided around them; their
+// Mitsuba 3 parameter names and defaults, and the one-line errors (file and
+// line) for what is out of range or not supported.
+#include <gtest/gtest.h>
+#include <stdlib.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "luz/bsdf/fresnel.h"
+#include "luz/io/error.h"
+#include "luz/io/scene_loader.h"
+
+namespace fs = std::filesystem;
+using luz::Bsdf;
+using luz::BsdfType;
+using luz::Color;
+
+namespace {
+
+class MitsubaBsdfs : public ::testing::Test {
+ protected:
+  fs::path dir;
+  void SetUp() override {
+    std::string tmpl = (fs::temp_directory_path() / "luz_test_mitsuba_bsdfs_XXXXXX").string();
+    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
+    dir = tmpl;
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+  // Lines: 1 <scene>, 2 <sensor/>, `body` from line 3.
+  static std::string scene(const std::string& body) {
+    return "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n" + body +
+           "<shape type=\"sphere\"/>\n</scene>\n";
+  }
+  luz::Scene load(const std::string& text) {
+    fs::path p = dir / "scene.xml";
+    std::ofstream(p, std::ios::binary) << text;
+    return luz::load_mitsuba(p.string(), {});
+  }
+  // The material of a sphere made with this one bsdf element.
+  Bsdf material(const std::string& bsdf) {
+    luz::Scene s = load("<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n<shape type=\"sphere\">\n" + bsdf +
+                        "\n</shape>\n</scene>\n");
+    EXPECT_EQ(s.spheres.size(), 1u);
+    return s.materials[s.spheres[0].material];
+  }
+  // `body` starts on line 3; expects an InputError at `line` containing `problem`.
+  void expect_error(const std::string& body, int line, const std::string& problem) {
+    try {
+      load(scene(body));
+      ADD_FAILURE() << "no error for:\n" << body;
+    } catch (const luz::InputError& e) {
+      EXPECT_EQ(e.file(), (dir / "scene.xml").string());
+      EXPECT_EQ(e.line(), line) << e.what();
+      EXPECT_NE(e.problem().find(problem), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+    }
+  }
+};
+
+void expect_color(Color c, float r, float g, float b) {
+  EXPECT_FLOAT_EQ(c.x, r);
+  EXPECT_FLOAT_EQ(c.y, g);
+  EXPECT_FLOAT_EQ(c.z, b);
+}
+
+}  // namespace
+
+TEST_F(MitsubaBsdfs, Conductor) {
+  // Mitsuba 3's default material is "none": the perfect mirror (F = 1).
+  Bsdf d = material("<bsdf type=\"conductor\"/>");
+  EXPECT_EQ(d.type, BsdfType::SmoothConductor);
+  EXPECT_FALSE(d.two_sided);
+  EXPECT_TRUE(d.delta_only());
+  expect_color(d.smooth_conductor.eta.value, 0, 0, 0);
+  expect_color(d.smooth_conductor.k.value, 1, 1, 1);
+  expect_color(d.smooth_conductor.specular_reflectance.value, 1, 1, 1);
+
+  Bsdf au = material("<bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/></bsdf>");
+  Color eta, k;
+  ASSERT_TRUE(luz::find_conductor_preset("Au", eta, k));
+  expect_color(au.smooth_conductor.eta.value, eta.x, eta.y, eta.z);
+  expect_color(au.smooth_conductor.k.value, k.x, k.y, k.z);
+
+  Bsdf e = material(
+      "<bsdf type=\"conductor\"><rgb name=\"eta\" value=\"0.2, 0.9, 1.1\"/><spectrum name=\"k\" value=\"3\"/>"
+      "<rgb name=\"specular_reflectance\" value=\"0.3\"/></bsdf>");
+  expect_color(e.smooth_conductor.eta.value, 0.2f, 0.9f, 1.1f);
+  expect_color(e.smooth_conductor.k.value, 3, 3, 3);
+  expect_color(e.smooth_conductor.specular_reflectance.value, 0.3f, 0.3f, 0.3f);
+  Bsdf f = material("<bsdf type=\"conductor\"><float name=\"eta\" value=\"1.5\"/></bsdf>");
+  expect_color(f.smooth_conductor.eta.value, 1.5f, 1.5f, 1.5f);
+  expect_color(f.smooth_conductor.k.value, 1, 1, 1);  // Mitsuba's default k when eta is given
+
+  Bsdf t = material("<bsdf type=\"twosided\"><bsdf type=\"conductor\"/></bsdf>");
+  EXPECT_TRUE(t.two_sided);
+  EXPECT_EQ(t.type, BsdfType::SmoothConductor);
+}
+
+TEST_F(MitsubaBsdfs, RoughConductor) {
+  Bsdf d = material("<bsdf type=\"roughconductor\"/>");
+  EXPECT_EQ(d.type, BsdfType::RoughConductor);
+  EXPECT_EQ(d.rough_conductor.distribution, luz::MicrofacetType::Beckmann);  // Mitsuba's default
+  EXPECT_FLOAT_EQ(d.rough_conductor.alpha_u.value, 0.1f);
+  EXPECT_FLOAT_EQ(d.rough_conductor.alpha_v.value, 0.1f);
+  EXPECT_FALSE(d.has_delta());
+
+  Bsdf g = material(
+      "<bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"ggx\"/><float name=\"alpha\" value=\"0.3\"/>"
+      "<string name=\"material\" value=\"Cu\"/></bsdf>");
+  EXPECT_EQ(g.rough_conductor.distribution, luz::MicrofacetType::GGX);
+  EXPECT_FLOAT_EQ(g.rough_conductor.alpha_u.value, 0.3f);
+  EXPECT_FLOAT_EQ(g.rough_conductor.alpha_v.value, 0.3f);
+  Color eta, k;
+  ASSERT_TRUE(luz::find_conductor_preset("Cu", eta, k));
+  expect_color(g.rough_conductor.k.value, k.x, k.y, k.z);
+
+  Bsdf a = material(
+      "<bsdf type=\"roughconductor\"><float name=\"alpha_u\" value=\"0.05\"/><float name=\"alpha_v\" value=\"0.4\"/>"
+      "<boolean name=\"sample_visible\" value=\"true\"/></bsdf>");
+  EXPECT_FLOAT_EQ(a.rough_conductor.alpha_u.value, 0.05f);
+  EXPECT_FLOAT_EQ(a.rough_conductor.alpha_v.value, 0.4f);
+}
+
+TEST_F(MitsubaBsdfs, Dielectrics) {
+  float bk7, air, water;
+  ASSERT_TRUE(luz::find_ior_preset("bk7", bk7));
+  ASSERT_TRUE(luz::find_ior_preset("air", air));
+  ASSERT_TRUE(luz::find_ior_preset("water", water));
+
+  Bsdf d = material("<bsdf type=\"dielectric\"/>");  // Mitsuba: bk7 in air
+  EXPECT_EQ(d.type, BsdfType::SmoothDielectric);
+  EXPECT_FLOAT_EQ(d.smooth_dielectric.eta, bk7 / air);
+  EXPECT_TRUE(d.delta_only());
+  EXPECT_TRUE(d.has_transmission());
+
+  Bsdf w = material(
+      "<bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"water\"/><float name=\"ext_ior\" value=\"1\"/>"
+      "<rgb name=\"specular_transmittance\" value=\"0.5, 0.6, 0.7\"/></bsdf>");
+  EXPECT_FLOAT_EQ(w.smooth_dielectric.eta, water);
+  expect_color(w.smooth_dielectric.specular_transmittance.value, 0.5f, 0.6f, 0.7f);
+  expect_color(w.smooth_dielectric.specular_reflectance.value, 1, 1, 1);
+
+  Bsdf t = material("<bsdf type=\"thindielectric\"><float name=\"int_ior\" value=\"1.5\"/></bsdf>");
+  EXPECT_EQ(t.type, BsdfType::ThinDielectric);
+  EXPECT_FLOAT_EQ(t.thin_dielectric.eta, 1.5f / air);
+
+  Bsdf r = material(
+      "<bsdf type=\"roughdielectric\"><string name=\"distribution\" value=\"ggx\"/>"
+      "<float name=\"alpha\" value=\"0.2\"/><float name=\"int_ior\" value=\"1.33\"/>"
+      "<float name=\"ext_ior\" value=\"1\"/></bsdf>");
+  EXPECT_EQ(r.type, BsdfType::RoughDielectric);
+  EXPECT_EQ(r.rough_dielectric.distribution, luz::MicrofacetType::GGX);
+  EXPECT_FLOAT_EQ(r.rough_dielectric.alpha_u.value, 0.2f);
+  EXPECT_FLOAT_EQ(r.rough_dielectric.eta, 1.33f);
+  EXPECT_FALSE(r.has_delta());
+  EXPECT_TRUE(r.has_transmission());
+}
+
+TEST_F(MitsubaBsdfs, PlasticWardBlinnPhong) {
+  Bsdf p = material("<bsdf type=\"plastic\"><rgb name=\"diffuse_reflectance\" value=\"0.1, 0.2, 0.3\"/></bsdf>");
+  EXPECT_EQ(p.type, BsdfType::SmoothPlastic);
+  expect_color(p.smooth_plastic.diffuse_reflectance.value, 0.1f, 0.2f, 0.3f);
+  expect_color(p.smooth_plastic.specular_reflectance.value, 1, 1, 1);
+  float pp, air;
+  ASSERT_TRUE(luz::find_ior_preset("polypropylene", pp));
+  ASSERT_TRUE(luz::find_ior_preset("air", air));
+  EXPECT_FLOAT_EQ(p.smooth_plastic.eta, pp / air);
+  EXPECT_TRUE(p.has_delta());
+  EXPECT_FALSE(p.delta_only());
+  Bsdf pn = material("<bsdf type=\"plastic\"><boolean name=\"nonlinear\" value=\"false\"/>"
+                     "<float name=\"int_ior\" value=\"1.6\"/></bsdf>");
+  EXPECT_FLOAT_EQ(pn.smooth_plastic.eta, 1.6f / air);
+
+  Bsdf w = material("<bsdf type=\"ward\"/>");
+  EXPECT_EQ(w.type, BsdfType::Ward);
+  EXPECT_EQ(w.ward.variant, luz::WardVariant::Balanced);
+  Bsdf wo = material(
+      "<bsdf type=\"ward\"><string name=\"variant\" value=\"ward\"/><float name=\"alpha_u\" value=\"0.1\"/>"
+      "<float name=\"alpha_v\" value=\"0.3\"/><rgb name=\"diffuse_reflectance\" value=\"0.2\"/>"
+      "<rgb name=\"specular_reflectance\" value=\"0.5\"/></bsdf>");
+  EXPECT_EQ(wo.ward.variant, luz::WardVariant::Ward);
+  EXPECT_FLOAT_EQ(wo.ward.alpha_v.value, 0.3f);
+  expect_color(wo.ward.specular_reflectance.value, 0.5f, 0.5f, 0.5f);
+
+  Bsdf b = material("<bsdf type=\"blinnphong\"><float name=\"exponent\" value=\"50\"/>"
+                    "<rgb name=\"diffuse_reflectance\" value=\"0.3\"/><rgb name=\"specular_reflectance\" value=\"0.6\"/></bsdf>");
+  EXPECT_EQ(b.type, BsdfType::BlinnPhong);
+  EXPECT_FLOAT_EQ(b.blinn_phong.exponent.value, 50.f);
+  expect_color(b.blinn_phong.specular_reflectance.value, 0.6f, 0.6f, 0.6f);
+}
+
+TEST_F(MitsubaBsdfs, BlendAndTwosided) {
+  luz::Scene s = load(scene(
+      "<bsdf type=\"roughconductor\" id=\"metal\"><float name=\"alpha\" value=\"0.2\"/></bsdf>\n"
+      "<bsdf type=\"blendbsdf\" id=\"mix\"><float name=\"weight\" value=\"0.25\"/>"
+      "<bsdf type=\"diffuse\"/><ref id=\"metal\"/></bsdf>\n"
+      "<bsdf type=\"twosided\" id=\"mix2\"><ref id=\"mix\"/></bsdf>\n"
+      "<shape type=\"sphere\"><ref id=\"mix\"/></shape>\n"
+      "<shape type=\"sphere\"><ref id=\"mix2\"/></shape>\n"));
+  const Bsdf& m = s.materials[s.spheres[0].material];
+  EXPECT_TRUE(m.blend);
+  EXPECT_FLOAT_EQ(m.blend_weight, 0.25f);
+  EXPECT_EQ(m.type, BsdfType::Diffuse);
+  EXPECT_EQ(m.second.type, BsdfType::RoughConductor);
+  EXPECT_FALSE(m.two_sided);
+  const Bsdf& m2 = s.materials[s.spheres[1].material];
+  EXPECT_TRUE(m2.blend);
+  EXPECT_TRUE(m2.two_sided);
+  // A blend of a diffuse and a dielectric is allowed (not inside twosided).
+  Bsdf g = material("<bsdf type=\"blendbsdf\"><bsdf type=\"diffuse\"/><bsdf type=\"dielectric\"/></bsdf>");
+  EXPECT_TRUE(g.has_transmission());
+  EXPECT_FLOAT_EQ(g.blend_weight, 0.5f);  // Mitsuba's default weight
+}
+
+TEST_F(MitsubaBsdfs, Errors) {
+  // Body on line 3; errors point at the bsdf element (line 3) unless noted.
+  expect_error("<bsdf type=\"roughplastic\"/>\n", 3, "'roughplastic' is not supported yet");
+  expect_error("<bsdf type=\"plastic\"><boolean name=\"nonlinear\" value=\"true\"/></bsdf>\n", 3,
+               "nonlinear = true is not supported");
+  expect_error("<bsdf type=\"roughconductor\"><float name=\"alpha\" value=\"0\"/></bsdf>\n", 3, "must be positive");
+  expect_error("<bsdf type=\"roughconductor\"><float name=\"alpha\" value=\"-0.1\"/></bsdf>\n", 3, "must be positive");
+  expect_error("<bsdf type=\"roughdielectric\"><float name=\"alpha_u\" value=\"0.1\"/></bsdf>\n", 3,
+               "must be given together");
+  expect_error("<bsdf type=\"roughconductor\"><float name=\"alpha\" value=\"0.1\"/>"
+               "<float name=\"alpha_u\" value=\"0.1\"/><float name=\"alpha_v\" value=\"0.1\"/></bsdf>\n",
+               3, "not both");
+  expect_error("<bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"phong\"/></bsdf>\n", 3,
+               "unknown distribution 'phong'");
+  expect_error("<bsdf type=\"conductor\"><string name=\"material\" value=\"Unobtainium\"/></bsdf>\n", 3,
+               "unknown conductor material 'Unobtainium'");
+  expect_error("<bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/><rgb name=\"eta\" value=\"1\"/></bsdf>\n",
+               3, "either 'material' or 'eta' and 'k'");
+  expect_error("<bsdf type=\"conductor\"><rgb name=\"k\" value=\"1, -1, 1\"/></bsdf>\n", 3, "must not be negative");
+  expect_error("<bsdf type=\"conductor\"><rgb name=\"specular_reflectance\" value=\"1.2\"/></bsdf>\n", 3, "[0, 1]");
+  expect_error("<bsdf type=\"dielectric\"><float name=\"int_ior\" value=\"0\"/></bsdf>\n", 3,
+               "'int_ior' must be positive");
+  expect_error("<bsdf type=\"thindielectric\"><float name=\"ext_ior\" value=\"-1.5\"/></bsdf>\n", 3,
+               "'ext_ior' must be positive");
+  expect_error("<bsdf type=\"dielectric\">\n<string name=\"int_ior\" value=\"kryptonite\"/></bsdf>\n", 4,
+               "unknown index of refraction preset 'kryptonite'");
+  expect_error("<bsdf type=\"dielectric\"><rgb name=\"specular_transmittance\" value=\"-0.1\"/></bsdf>\n", 3, "[0, 1]");
+  expect_error("<bsdf type=\"roughdielectric\"><float name=\"int_ior\" value=\"1.2\"/>"
+               "<float name=\"ext_ior\" value=\"1.2\"/></bsdf>\n",
+               3, "int_ior != ext_ior");
+  expect_error("<bsdf type=\"plastic\"><rgb name=\"diffuse_reflectance\" value=\"1.1\"/></bsdf>\n", 3, "[0, 1]");
+  expect_error("<bsdf type=\"blendbsdf\"><float name=\"weight\" value=\"1.5\"/>"
+               "<bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf>\n",
+               3, "'weight' must lie in [0, 1]");
+  expect_error("<bsdf type=\"blendbsdf\"><bsdf type=\"diffuse\"/></bsdf>\n", 3, "exactly two nested bsdfs");
+  expect_error("<bsdf type=\"blendbsdf\">\n<bsdf type=\"blendbsdf\"><bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/>"
+               "</bsdf><bsdf type=\"diffuse\"/></bsdf>\n",
+               3, "inside a blendbsdf is not supported");
+  expect_error("<bsdf type=\"blendbsdf\"><bsdf type=\"twosided\"><bsdf type=\"diffuse\"/></bsdf>"
+               "<bsdf type=\"diffuse\"/></bsdf>\n",
+               3, "both be twosided");
+  expect_error("<bsdf type=\"twosided\"><bsdf type=\"dielectric\"/></bsdf>\n", 3,
+               "twosided cannot wrap a material that transmits");
+  expect_error("<bsdf type=\"twosided\"><bsdf type=\"blendbsdf\"><bsdf type=\"diffuse\"/>"
+               "<bsdf type=\"roughdielectric\"/></bsdf></bsdf>\n",
+               3, "twosided cannot wrap a material that transmits");
+  expect_error("<bsdf type=\"ward\"><string name=\"variant\" value=\"ward-duer\"/></bsdf>\n", 3,
+               "'ward-duer' is not supported yet");
+  expect_error("<bsdf type=\"ward\"><string name=\"variant\" value=\"lafortune\"/></bsdf>\n", 3,
+               "unknown ward variant 'lafortune'");
+  expect_error("<bsdf type=\"ward\"><float name=\"alpha_u\" value=\"0\"/></bsdf>\n", 3, "must be positive");
+  expect_error("<bsdf type=\"ward\"><rgb name=\"diffuse_reflectance\" value=\"0.9\"/></bsdf>\n", 3, "create energy");
+  expect_error("<bsdf type=\"blinnphong\"><rgb name=\"diffuse_reflectance\" value=\"0.5\"/>"
+               "<rgb name=\"specular_reflectance\" value=\"0.6\"/></bsdf>\n",
+               3, "create energy");
+  expect_error("<bsdf type=\"blinnphong\"><float name=\"exponent\" value=\"-1\"/></bsdf>\n", 3, "exponent must be");
+  expect_error("<bsdf type=\"roughconductor\"><float name=\"roughness\" value=\"0.1\"/></bsdf>\n", 3,
+               "unknown parameter 'roughness'");
+}
