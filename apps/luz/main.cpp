@@ -1,7 +1,12 @@
 // luz: the command-line renderer.
 //   luz render SCENE [-o out.exr|.pfm|.png] [--spp N] [--threads N] [--seed S]
 //       [--max-depth D] [--sampler independent|stratified|sobol]
-//       [--integrator path|bsdf|light] [-D name=value]...
+//       [--integrator path|bsdf|light] [--device cpu|cuda|auto] [-D name=value]...
+//
+// --device: cpu (the default: all cores, Embree), cuda (the first NVIDIA GPU;
+// without a usable one, a one-line error naming why, exit status 2, before
+// the scene is even read), auto (cuda when a GPU is usable, else the CPU
+// with a one-line warning). Same flags, same image, same stats line on each.
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
@@ -13,6 +18,7 @@
 #include <string>
 
 #include "luz/device/cpu/render.h"
+#include "luz/device/cuda/render_cuda.h"
 #include "luz/io/error.h"
 #include "luz/io/image.h"
 #include "luz/io/scene_loader.h"
@@ -39,7 +45,8 @@ void check_output(const std::string& out) {
 }
 
 int render(const std::string& scene_path, std::vector<std::string> outs, int spp, int threads, long long seed, int max_depth,
-           const std::string& sampler, const std::string& integrator, const std::vector<std::string>& defs) {
+           const std::string& sampler, const std::string& integrator, const std::string& device,
+           const std::vector<std::string>& defs) {
   luz::Defines defines;
   for (const std::string& d : defs) {
     size_t eq = d.find('=');
@@ -50,6 +57,16 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
   }
   if (outs.empty()) outs.push_back(std::filesystem::path(scene_path).stem().string() + ".exr");
   for (const std::string& out : outs) check_output(out);
+
+  // The device is settled before the scene is read: `--device cuda` without a
+  // usable GPU fails at once. auto's fallback warning waits until the scene
+  // has loaded, so that bad input still gives exactly one line.
+  bool use_cuda = device == "cuda";
+  std::string no_gpu;
+  if (device == "cuda" || device == "auto") {
+    use_cuda = luz::cuda_available(&no_gpu);
+    if (!use_cuda && device == "cuda") throw luz::InputError("--device cuda: " + no_gpu);
+  }
 
   luz::Scene scene = luz::load_scene(scene_path, defines);
   luz::RenderSettings& s = scene.settings;
@@ -63,14 +80,23 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
   else if (integrator == "bsdf") s.integrator.type = luz::IntegratorType::Bsdf;
   else if (integrator == "light") s.integrator.type = luz::IntegratorType::Light;
 
-  luz::CpuRenderOptions opt;
-  opt.threads = threads;
-  opt.progress = ::isatty(2);
+  if (device == "auto" && !use_cuda)
+    std::fprintf(stderr, "luz: warning: --device auto: no usable GPU (%s); rendering on the CPU\n", no_gpu.c_str());
   luz::RenderStats stats;
-  std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu emitters\n", scene_path.c_str(),
+  std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu emitters, on %s\n", scene_path.c_str(),
                scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(), scene.spheres.size(),
-               scene.emitters.size());
-  luz::Film film = luz::render_cpu(scene, opt, stats);
+               scene.emitters.size(), use_cuda ? luz::cuda_device_name().c_str() : "the CPU");
+  luz::Film film;
+  if (use_cuda) {
+    luz::CudaRenderOptions opt;
+    opt.progress = ::isatty(2);
+    film = luz::render_cuda(scene, opt, stats);
+  } else {
+    luz::CpuRenderOptions opt;
+    opt.threads = threads;
+    opt.progress = ::isatty(2);
+    film = luz::render_cpu(scene, opt, stats);
+  }
   luz::Image img{film.width, film.height, film.mean()};
   std::string written;
   for (const std::string& out : outs) {
@@ -89,7 +115,7 @@ int main(int argc, char** argv) {
   CLI::App app{"Luz: a physically based path tracer"};
   app.require_subcommand(1);
   CLI::App* rc = app.add_subcommand("render", "render a scene (Mitsuba 3 XML or OBJ) to an image");
-  std::string scene, sampler, integrator;
+  std::string scene, sampler, integrator, device = "cpu";
   std::vector<std::string> outs;
   int spp = 0, threads = 0, max_depth = 0;
   long long seed = -1;
@@ -104,6 +130,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(-1, 1 << 20) & !CLI::IsMember({0}));
   rc->add_option("--sampler", sampler, "sample generator")->check(CLI::IsMember({"independent", "stratified", "sobol"}));
   rc->add_option("--integrator", integrator, "estimator")->check(CLI::IsMember({"path", "bsdf", "light"}));
+  rc->add_option("--device", device, "where to render: cpu (default), cuda (an NVIDIA GPU), auto (cuda if usable)")
+      ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   rc->add_option("-D", defines, "override a scene <default>: name=value")->allow_extra_args(false);
   try {
     app.parse(argc, argv);
@@ -117,7 +145,7 @@ int main(int argc, char** argv) {
   // Every error is one line: "file:line: error: problem" when it concerns a
   // file, "luz: error: problem" otherwise.
   try {
-    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, defines);
+    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, device, defines);
   } catch (const luz::InputError& e) {
     if (e.file().empty())
       std::fprintf(stderr, "luz: error: %s\n", e.problem().c_str());
@@ -126,6 +154,10 @@ int main(int argc, char** argv) {
     else
       std::fprintf(stderr, "%s: error: %s\n", e.file().c_str(), e.problem().c_str());
     return kExitBadInput;
+  } catch (const luz::CudaError& e) {
+    // No usable GPU is the user's setup (2); a GPU that fails mid-render, 1.
+    std::fprintf(stderr, "luz: error: CUDA: %s\n", e.what());
+    return e.kind() == luz::CudaError::Kind::Unavailable ? kExitBadInput : 1;
   } catch (const std::bad_alloc&) {
     std::fprintf(stderr, "luz: error: out of memory\n");
     return 1;

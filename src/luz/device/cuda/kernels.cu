@@ -1,74 +1,31 @@
-// The integrator instantiated for the GPU. Until Luz's own BVH lands (the CUDA
-// backend issue), the device tracer is a brute-force loop over all primitives:
-// it exists so that every change to the shared integrator, BSDFs, lights,
-// samplers and camera is compiled by nvcc from the first day.
-#include "luz/film/filter.h"
-#include "luz/integrator/path.h"
+// The CUDA megakernel: one thread per pixel runs render_pixel_pass (pass.h),
+// i.e. the shared path tracer (integrator/path.h) over Luz's own BVH
+// (accel/bvh.h, BvhTracer: Aila-Laine stack traversal; its intersect() is
+// OptiX's closest-hit query, occluded() the any-hit shadow query). Everything
+// else (memory, passes, the film) is host code in render_cuda.cpp.
+#include "luz/device/cuda/launch.h"
 
-namespace luz {
+namespace luz::cuda {
 
-// Brute-force tracer: "intersection" and "any hit" roles of OptiX, in one struct.
-struct BruteForceTracer {
-  const SceneView* scene;
-
-  __device__ bool intersect(const Ray& ray, Hit& hit) const {
-    bool found = false;
-    float tmax = ray.tmax;
-    for (uint32_t k = 0; k < scene->num_triangles; ++k) {
-      Vec3 p0, p1, p2;
-      scene->triangle(k, p0, p1, p2);
-      // Möller-Trumbore.
-      Vec3 e1 = p1 - p0, e2 = p2 - p0, pv = cross(ray.d, e2);
-      float det = dot(e1, pv);
-      if (det == 0.f) continue;
-      float inv = 1.f / det;
-      Vec3 tv = ray.o - p0;
-      float u = dot(tv, pv) * inv;
-      if (u < 0.f || u > 1.f) continue;
-      Vec3 qv = cross(tv, e1);
-      float v = dot(ray.d, qv) * inv;
-      if (v < 0.f || u + v > 1.f) continue;
-      float t = dot(e2, qv) * inv;
-      if (t > 0.f && t < tmax) {
-        tmax = t;
-        hit = {t, k, PrimKind::Triangle, u, v};
-        found = true;
-      }
-    }
-    for (uint32_t k = 0; k < scene->num_spheres; ++k) {
-      float t = intersect_sphere(scene->spheres[k].center, scene->spheres[k].radius, ray.o, ray.d, tmax);
-      if (t > 0.f) {
-        tmax = t;
-        hit = {t, k, PrimKind::Sphere, 0.f, 0.f};
-        found = true;
-      }
-    }
-    return found;
-  }
-  __device__ bool occluded(const Ray& ray) const {
-    Hit h;
-    return intersect(ray, h);
-  }
-};
-
-__global__ void render_kernel(SceneView scene, SamplerDesc desc, IntegratorParams params, FilterKind filter,
-                              uint32_t sample_index, float* out, unsigned long long* rays) {
-  int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
-  if (x >= scene.camera.width || y >= scene.camera.height) return;
-  Sampler sampler;
-  sampler.start(desc, uint32_t(x), uint32_t(y), sample_index);
-  Vec2 off = sample_filter(filter, sampler.next_2d());
-  Ray ray = scene.camera.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
-  BruteForceTracer tracer{&scene};
+__global__ void __launch_bounds__(kBlockX * kBlockY) render_pass_kernel(PassParams p, unsigned long long* rays) {
+  const uint32_t x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
   uint64_t n = 0;
-  Color L = path_li(scene, tracer, ray, sampler, params, n);
-  size_t i = 3 * (size_t(y) * scene.camera.width + x);
-  if (is_finite(L)) {
-    out[i] += L.x;
-    out[i + 1] += L.y;
-    out[i + 2] += L.z;
-  }
-  atomicAdd(rays, (unsigned long long)n);
+  if (x < uint32_t(p.scene.camera.width) && y < uint32_t(p.scene.camera.height)) n = render_pixel_pass(p, x, y);
+  // One atomic per warp: every lane reaches the reduction (no early return).
+  for (int offset = 16; offset > 0; offset /= 2) n += __shfl_down_sync(0xffffffffu, n, offset);
+  if (((threadIdx.y * blockDim.x + threadIdx.x) & 31u) == 0 && n != 0) atomicAdd(rays, (unsigned long long)n);
 }
 
-}  // namespace luz
+cudaError_t launch_render_pass(const PassParams& params, unsigned long long* rays, cudaStream_t stream) {
+  const dim3 block(kBlockX, kBlockY);
+  const dim3 grid((unsigned(params.scene.camera.width) + kBlockX - 1) / kBlockX,
+                  (unsigned(params.scene.camera.height) + kBlockY - 1) / kBlockY);
+  render_pass_kernel<<<grid, block, 0, stream>>>(params, rays);
+  return cudaGetLastError();
+}
+
+cudaError_t render_pass_attributes(cudaFuncAttributes* attributes) {
+  return cudaFuncGetAttributes(attributes, render_pass_kernel);
+}
+
+}  // namespace luz::cuda

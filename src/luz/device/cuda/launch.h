@@ -1,0 +1,22 @@
+// The seam between kernels.cu (compiled by nvcc) and render_cuda.cpp (the host
+// side, compiled by the C++ compiler against the CUDA runtime API). Internal
+// to the CUDA backend.
+#pragma once
+
+#include <cuda_runtime_api.h>
+
+#include "luz/device/cuda/pass.h"
+
+namespace luz::cuda {
+
+inline constexpr int kBlockX = 16, kBlockY = 8;  // 128 threads, four warps, per block
+
+// Enqueues one pass on `stream`; `rays` (device) gains the pass's ray count.
+cudaError_t launch_render_pass(const PassParams& params, unsigned long long* rays, cudaStream_t stream);
+
+// Attributes of the pass kernel; fails with cudaErrorNoKernelImageForDevice
+// (or cudaErrorInvalidDeviceFunction) when this build has no code for the
+// current device's architecture.
+cudaError_t render_pass_attributes(cudaFuncAttributes* attributes);
+
+}  // namespace luz::cuda

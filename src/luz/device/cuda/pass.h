@@ -1,0 +1,106 @@
+// One pass of the CUDA renderer, written once for the device and the host:
+// render_pixel_pass() is the body of the megakernel (kernels.cu) and also runs
+// on the host, over host pointers, in tests/test_cuda.cpp, so the pass logic,
+// the random-number order and the host reduction are tested on machines
+// without a GPU.
+//
+// A pass renders samples [first_sample, first_sample + num_samples) of every
+// pixel and OVERWRITES (does not accumulate) its output: per pixel, float sums
+// and sums of squares of the finite samples (RGB) and their count. The host
+// adds each pass into the double Film (accumulate_pass), so float only ever
+// holds num_samples (≤ kMaxSamplesPerPass) samples: with one sample per pass
+// the Film's sums are exactly the CPU's (for equal samples), its sums of
+// squares within one float rounding of each square.
+#pragma once
+
+#include <cstddef>
+
+#include "luz/accel/bvh.h"
+#include "luz/film/film.h"
+#include "luz/film/filter.h"
+#include "luz/integrator/path.h"
+
+namespace luz {
+
+inline constexpr uint32_t kMaxSamplesPerPass = 64;
+
+struct PassOutput {
+  float* sum = nullptr;     // 3 per pixel, RGB, rows top to bottom
+  float* sum_sq = nullptr;  // 3 per pixel
+  uint32_t* count = nullptr;  // finite samples per pixel
+};
+
+struct PassParams {
+  SceneView scene;    // device pointers on the device
+  BvhTracer tracer;   // likewise
+  SamplerDesc sampler;
+  IntegratorParams integrator;
+  FilterKind filter = FilterKind::Box;
+  uint32_t first_sample = 0, num_samples = 1;
+  PassOutput out;
+};
+
+// The pass for pixel (x, y), exactly render_cpu's per-pixel loop: Sampler
+// started at the pixel, set_sample per sample, the filter's 2D sample first,
+// then the camera ray and path_li. Returns the rays traced.
+LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t y) {
+  const Camera& cam = p.scene.camera;
+  Sampler sampler;
+  sampler.start(p.sampler, x, y, p.first_sample);
+  float s0 = 0.f, s1 = 0.f, s2 = 0.f, q0 = 0.f, q1 = 0.f, q2 = 0.f;
+  uint32_t n = 0;
+  uint64_t rays = 0;
+  for (uint32_t k = 0; k < p.num_samples; ++k) {
+    sampler.set_sample(p.first_sample + k);
+    Vec2 off = sample_filter(p.filter, sampler.next_2d());
+    Ray ray = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+    Color L = path_li(p.scene, p.tracer, ray, sampler, p.integrator, rays);
+    if (is_finite(L)) {
+      s0 += L.x;
+      s1 += L.y;
+      s2 += L.z;
+      q0 += L.x * L.x;
+      q1 += L.y * L.y;
+      q2 += L.z * L.z;
+      ++n;
+    }
+  }
+  size_t i = size_t(y) * size_t(cam.width) + x;
+  p.out.sum[3 * i] = s0;
+  p.out.sum[3 * i + 1] = s1;
+  p.out.sum[3 * i + 2] = s2;
+  p.out.sum_sq[3 * i] = q0;
+  p.out.sum_sq[3 * i + 1] = q1;
+  p.out.sum_sq[3 * i + 2] = q2;
+  p.out.count[i] = n;
+  return rays;
+}
+
+// Host: adds pixels [begin, end) of one pass (num_samples each) into the
+// Film. Returns the samples discarded there as non-finite.
+inline uint64_t accumulate_pass(Film& film, const float* sum, const float* sum_sq, const uint32_t* count,
+                                uint32_t num_samples, size_t begin, size_t end) {
+  uint64_t discarded = 0;
+  for (size_t i = begin; i < end; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      film.sum[3 * i + k] += double(sum[3 * i + k]);
+      film.sum_sq[3 * i + k] += double(sum_sq[3 * i + k]);
+    }
+    film.count[i] += count[i];
+    discarded += num_samples - count[i];
+  }
+  return discarded;
+}
+
+// Samples per pass when the caller leaves it to us: enough pixel-samples per
+// launch (~2^21) to fill a large GPU and amortise each pass's copy and
+// reduction, never more than kMaxSamplesPerPass (float sums), nor than spp.
+// A function of the image size alone, so a render's film is deterministic.
+inline uint32_t default_samples_per_pass(uint64_t pixels, uint32_t spp) {
+  uint64_t k = pixels ? ((uint64_t(1) << 21) + pixels - 1) / pixels : 1;
+  if (k > kMaxSamplesPerPass) k = kMaxSamplesPerPass;
+  if (k > spp) k = spp;
+  return k < 1 ? 1 : uint32_t(k);
+}
+
+}  // namespace luz

@@ -1,0 +1,397 @@
+// Host side of the CUDA renderer: device checks, uploads, the pass loop and
+// the film. The kernel itself is in kernels.cu; the seam is launch.h.
+//
+// Memory: every SceneView array and the BVH (nodes, references) is copied
+// once into its own cudaMalloc'd buffer; a device SceneView and BvhTracer hold
+// those pointers and travel to the kernel by value, as its parameter. Two
+// output slots (device + pinned host, 28 bytes per pixel each) let the GPU
+// render pass p+1 while the host adds pass p into the double Film.
+//
+// Every CUDA call is checked; a failure becomes a one-line CudaError naming
+// what was being done and CUDA's own name and text for the error. Buffers,
+// stream and events are RAII, so nothing leaks when one is thrown.
+#include "luz/device/cuda/render_cuda.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <utility>
+#include <vector>
+
+#include "luz/accel/bvh_build.h"
+#include "luz/device/cuda/launch.h"
+#include "luz/device/progress.h"
+#include "luz/io/error.h"
+
+#ifndef LUZ_CUDA_ARCHITECTURES
+#define LUZ_CUDA_ARCHITECTURES "?"
+#endif
+
+namespace luz {
+
+CudaError::CudaError(Kind kind, const std::string& message)
+    : std::runtime_error(InputError::one_line(message)), kind_(kind) {}
+
+namespace {
+
+std::string describe(cudaError_t e) { return std::string(cudaGetErrorName(e)) + ": " + cudaGetErrorString(e); }
+
+std::string version_string(int v) { return std::to_string(v / 1000) + "." + std::to_string(v % 1000 / 10); }
+
+std::string mib(size_t bytes) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f MiB", double(bytes) / (1024.0 * 1024.0));
+  return buf;
+}
+
+CudaError::Kind kind_of(cudaError_t e) {
+  switch (e) {
+    case cudaErrorMemoryAllocation:
+      return CudaError::Kind::OutOfMemory;
+    case cudaErrorNoDevice:
+    case cudaErrorInsufficientDriver:
+    case cudaErrorNoKernelImageForDevice:
+    case cudaErrorInvalidDeviceFunction:
+    case cudaErrorInvalidDevice:
+    case cudaErrorDevicesUnavailable:
+      return CudaError::Kind::Unavailable;
+    default:
+      return CudaError::Kind::Failure;
+  }
+}
+
+// Throws on failure: "<what>: cudaErrorX: text".
+void check(cudaError_t e, const std::string& what) {
+  if (e == cudaSuccess) return;
+  (void)cudaGetLastError();  // clear the error where it is not sticky
+  if (e == cudaErrorMemoryAllocation) {
+    size_t free_b = 0, total_b = 0;
+    std::string extra;
+    if (cudaMemGetInfo(&free_b, &total_b) == cudaSuccess)
+      extra = " (" + mib(free_b) + " free of " + mib(total_b) + ")";
+    else
+      (void)cudaGetLastError();
+    throw CudaError(CudaError::Kind::OutOfMemory, "out of GPU memory: " + what + extra);
+  }
+  throw CudaError(kind_of(e), what + ": " + describe(e));
+}
+
+// Whether device `device` can run our kernels; the reason when not.
+bool probe(int device, std::string& why, cudaDeviceProp* props) {
+  int driver = 0, runtime = 0;
+  cudaError_t e = cudaDriverGetVersion(&driver);
+  if (e != cudaSuccess || driver == 0) {
+    (void)cudaGetLastError();
+    why = "no NVIDIA driver found (libcuda.so is not installed)";
+    return false;
+  }
+  if (cudaRuntimeGetVersion(&runtime) != cudaSuccess) runtime = CUDART_VERSION;
+  if (driver / 1000 < runtime / 1000) {
+    why = "the NVIDIA driver is too old: it supports CUDA " + version_string(driver) + ", this build needs CUDA " +
+          version_string(runtime) + " (update the driver)";
+    return false;
+  }
+  int count = 0;
+  e = cudaGetDeviceCount(&count);
+  if (e == cudaErrorNoDevice || (e == cudaSuccess && count == 0)) {
+    (void)cudaGetLastError();
+    why = "no CUDA-capable GPU found";
+    return false;
+  }
+  if (e == cudaErrorInsufficientDriver) {
+    (void)cudaGetLastError();
+    why = "the NVIDIA driver is too old: it supports CUDA " + version_string(driver) + ", this build needs CUDA " +
+          version_string(runtime) + " (update the driver)";
+    return false;
+  }
+  if (e != cudaSuccess) {
+    (void)cudaGetLastError();
+    why = "cannot query CUDA devices: " + describe(e);
+    return false;
+  }
+  if (device < 0 || device >= count) {
+    why = "no CUDA device " + std::to_string(device) + " (" + std::to_string(count) + " found)";
+    return false;
+  }
+  cudaDeviceProp p{};
+  if ((e = cudaGetDeviceProperties(&p, device)) != cudaSuccess || (e = cudaSetDevice(device)) != cudaSuccess) {
+    (void)cudaGetLastError();
+    why = "cannot use CUDA device " + std::to_string(device) + ": " + describe(e);
+    return false;
+  }
+  // Loads the module, creating the context: fails when this build holds no
+  // code the GPU can run.
+  cudaFuncAttributes attr{};
+  e = cuda::render_pass_attributes(&attr);
+  if (e != cudaSuccess) {
+    (void)cudaGetLastError();
+    std::string arch = std::to_string(p.major) + std::to_string(p.minor);
+    if (e == cudaErrorNoKernelImageForDevice || e == cudaErrorInvalidDeviceFunction ||
+        e == cudaErrorUnsupportedPtxVersion)
+      why = std::string(p.name) + " is sm_" + arch + ", but this build's kernels are for CUDA architectures " +
+            LUZ_CUDA_ARCHITECTURES + " (rebuild with -DCMAKE_CUDA_ARCHITECTURES=" + arch + ")";
+    else
+      why = "cannot load the CUDA kernels on " + std::string(p.name) + ": " + describe(e);
+    return false;
+  }
+  if (props) *props = p;
+  return true;
+}
+
+// A cudaMalloc'd array, freed on scope exit.
+class DeviceBuffer {
+ public:
+  DeviceBuffer() = default;
+  DeviceBuffer(size_t bytes, const std::string& what) : bytes_(bytes) {
+    if (bytes) check(cudaMalloc(&ptr_, bytes), "cudaMalloc of " + mib(bytes) + " for " + what);
+  }
+  DeviceBuffer(DeviceBuffer&& o) noexcept : ptr_(std::exchange(o.ptr_, nullptr)), bytes_(o.bytes_) {}
+  DeviceBuffer& operator=(DeviceBuffer&& o) noexcept {
+    std::swap(ptr_, o.ptr_);
+    std::swap(bytes_, o.bytes_);
+    return *this;
+  }
+  ~DeviceBuffer() {
+    if (ptr_) cudaFree(ptr_);
+  }
+  void* get() const { return ptr_; }
+  size_t bytes() const { return bytes_; }
+
+ private:
+  void* ptr_ = nullptr;
+  size_t bytes_ = 0;
+};
+
+// Page-locked host memory (asynchronous copies need it), freed on scope exit.
+class PinnedBuffer {
+ public:
+  PinnedBuffer() = default;
+  PinnedBuffer(size_t bytes, const std::string& what) {
+    if (bytes) check(cudaMallocHost(&ptr_, bytes), "cudaMallocHost of " + mib(bytes) + " for " + what);
+  }
+  PinnedBuffer(PinnedBuffer&& o) noexcept : ptr_(std::exchange(o.ptr_, nullptr)) {}
+  PinnedBuffer& operator=(PinnedBuffer&& o) noexcept {
+    std::swap(ptr_, o.ptr_);
+    return *this;
+  }
+  ~PinnedBuffer() {
+    if (ptr_) cudaFreeHost(ptr_);
+  }
+  void* get() const { return ptr_; }
+
+ private:
+  void* ptr_ = nullptr;
+};
+
+class Stream {
+ public:
+  Stream() { check(cudaStreamCreateWithFlags(&s_, cudaStreamNonBlocking), "cudaStreamCreate"); }
+  ~Stream() {
+    // Let enqueued work finish before buffers it uses are freed (on an
+    // exception mid-render); errors are already being reported.
+    cudaStreamSynchronize(s_);
+    cudaStreamDestroy(s_);
+  }
+  Stream(const Stream&) = delete;
+  Stream& operator=(const Stream&) = delete;
+  cudaStream_t get() const { return s_; }
+
+ private:
+  cudaStream_t s_ = nullptr;
+};
+
+class Event {
+ public:
+  Event() { check(cudaEventCreateWithFlags(&e_, cudaEventDisableTiming), "cudaEventCreate"); }
+  ~Event() { cudaEventDestroy(e_); }
+  Event(const Event&) = delete;
+  Event& operator=(const Event&) = delete;
+  cudaEvent_t get() const { return e_; }
+
+ private:
+  cudaEvent_t e_ = nullptr;
+};
+
+// The uploads: one buffer per array, kept alive for the render.
+class Uploader {
+ public:
+  template <class T>
+  const T* upload(const T* host, size_t n, const char* what) {
+    if (n == 0 || host == nullptr) return nullptr;
+    buffers_.emplace_back(n * sizeof(T), what);
+    check(cudaMemcpy(buffers_.back().get(), host, n * sizeof(T), cudaMemcpyHostToDevice),
+          std::string("cudaMemcpy of ") + what + " to the GPU");
+    return static_cast<const T*>(buffers_.back().get());
+  }
+  template <class T>
+  const T* upload(const std::vector<T>& v, const char* what) {
+    return upload(v.data(), v.size(), what);
+  }
+
+ private:
+  std::vector<DeviceBuffer> buffers_;
+};
+
+// One output slot: the pass's float sums, squares and counts, on both sides.
+struct Slot {
+  DeviceBuffer device;
+  PinnedBuffer host;
+  PassOutput dev_out, host_out;
+  uint32_t first_sample = 0, num_samples = 0;
+  bool pending = false;
+};
+
+PassOutput carve(void* base, size_t pixels) {
+  PassOutput o;
+  o.sum = static_cast<float*>(base);
+  o.sum_sq = o.sum + 3 * pixels;
+  o.count = reinterpret_cast<uint32_t*>(o.sum_sq + 3 * pixels);
+  return o;
+}
+
+}  // namespace
+
+bool cuda_available(std::string* why) {
+  std::string reason;
+  bool ok = probe(0, reason, nullptr);
+  if (!ok && why) *why = reason;
+  return ok;
+}
+
+std::string cuda_device_name() {
+  std::string why;
+  cudaDeviceProp p{};
+  if (!probe(0, why, &p)) return "";
+  char buf[sizeof p.name + 64];
+  std::snprintf(buf, sizeof buf, "%s (sm_%d%d, %.1f GiB)", p.name, p.major, p.minor,
+                double(p.totalGlobalMem) / (1024.0 * 1024.0 * 1024.0));
+  return buf;
+}
+
+Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderStats& stats) {
+  std::string why;
+  if (!probe(options.device, why, nullptr)) throw CudaError(CudaError::Kind::Unavailable, why);
+
+  const SceneView host = scene.view();
+  const Camera& cam = host.camera;
+  const RenderSettings& rs = scene.settings;
+  const SamplerDesc desc = make_sampler_desc(rs.sampler, rs.spp, rs.seed);
+  const size_t pixels = size_t(cam.width) * size_t(cam.height);
+  Film film(cam.width, cam.height);
+
+  // The BVH, built on the host (binned SAH, TBB), then everything uploaded.
+  const Bvh bvh = build_bvh(host);
+  Uploader up;
+  SceneView dev = host;  // counts, camera, bounds, environment index as they are
+  dev.positions = up.upload(scene.positions, "vertex positions");
+  dev.normals = up.upload(scene.normals, "vertex normals");  // null when empty: flat shading
+  dev.indices = up.upload(scene.indices, "triangle indices");
+  dev.tri_material = up.upload(scene.tri_material, "triangle materials");
+  dev.tri_emitter = up.upload(scene.tri_emitter, "triangle emitters");
+  dev.spheres = up.upload(scene.spheres, "spheres");
+  dev.materials = up.upload(scene.materials, "materials");
+  dev.emitters = up.upload(scene.emitters, "emitters");
+  dev.emitter_cdf = up.upload(scene.emitter_cdf, "the emitter CDF");
+  dev.emitter_pmf = up.upload(scene.emitter_pmf, "the emitter PMF");
+  BvhTracer tracer;
+  tracer.bvh.nodes = up.upload(bvh.nodes, "BVH nodes");
+  tracer.bvh.num_nodes = uint32_t(bvh.nodes.size());
+  tracer.bvh.prims = up.upload(bvh.prims, "BVH primitive references");
+  tracer.bvh.num_prims = uint32_t(bvh.prims.size());
+  tracer.geometry.positions = dev.positions;
+  tracer.geometry.indices = dev.indices;
+  tracer.geometry.spheres = dev.spheres;
+
+  const size_t slot_bytes = pixels * (6 * sizeof(float) + sizeof(uint32_t));
+  Slot slots[2];
+  for (Slot& s : slots) {
+    s.device = DeviceBuffer(slot_bytes, "the film's pass buffers");
+    s.host = PinnedBuffer(slot_bytes, "the film's pass buffers");
+    s.dev_out = carve(s.device.get(), pixels);
+    s.host_out = carve(s.host.get(), pixels);
+  }
+  DeviceBuffer rays_buf(sizeof(unsigned long long), "the ray counter");
+  auto* rays = static_cast<unsigned long long*>(rays_buf.get());
+  check(cudaMemset(rays, 0, sizeof(unsigned long long)), "cudaMemset of the ray counter");
+  // Pageable uploads may still be in flight when cudaMemcpy returns, and the
+  // memset is asynchronous: all of it completes before the first pass.
+  check(cudaDeviceSynchronize(), "uploading the scene to the GPU");
+  Stream stream;
+  Event done[2];
+
+  PassParams params;
+  params.scene = dev;
+  params.tracer = tracer;
+  params.sampler = desc;
+  params.integrator = rs.integrator;
+  params.filter = rs.filter;
+  const uint32_t per_pass = options.samples_per_pass
+                                ? std::min(std::min(options.samples_per_pass, kMaxSamplesPerPass), desc.spp)
+                                : default_samples_per_pass(pixels, desc.spp);
+
+  std::atomic<uint64_t> discarded{0};
+  // Waits for a slot's pass and adds it into the film (all cores).
+  auto reduce = [&](Slot& s, int index) {
+    if (!s.pending) return;
+    check(cudaEventSynchronize(done[index].get()), "rendering samples " + std::to_string(s.first_sample) + ".." +
+                                                       std::to_string(s.first_sample + s.num_samples - 1));
+    const PassOutput& o = s.host_out;
+    const uint32_t n = s.num_samples;
+    uint64_t bad = tbb::parallel_reduce(
+        tbb::blocked_range<size_t>(0, pixels, 4096), uint64_t(0),
+        [&](const tbb::blocked_range<size_t>& r, uint64_t acc) {
+          return acc + accumulate_pass(film, o.sum, o.sum_sq, o.count, n, r.begin(), r.end());
+        },
+        [](uint64_t a, uint64_t b) { return a + b; });
+    discarded += bad;
+    s.pending = false;
+  };
+
+  auto start = std::chrono::steady_clock::now();
+  {
+    ProgressBar progress(options.progress, uint64_t(pixels) * desc.spp);
+    int p = 0;
+    for (uint32_t first = 0; first < desc.spp; first += per_pass, ++p) {
+      const int k = p & 1;
+      Slot& s = slots[k];
+      reduce(s, k);  // normally done already, one pass ago
+      s.first_sample = first;
+      s.num_samples = std::min(per_pass, desc.spp - first);
+      params.first_sample = s.first_sample;
+      params.num_samples = s.num_samples;
+      params.out = s.dev_out;
+      check(cuda::launch_render_pass(params, rays, stream.get()),
+            "launching the render kernel (" + std::to_string(cam.width) + "x" + std::to_string(cam.height) + ")");
+      check(cudaMemcpyAsync(s.host.get(), s.device.get(), slot_bytes, cudaMemcpyDeviceToHost, stream.get()),
+            "cudaMemcpyAsync of a pass to the host");
+      check(cudaEventRecord(done[k].get(), stream.get()), "cudaEventRecord");
+      s.pending = true;
+      // While the GPU renders this pass, the previous one joins the film.
+      Slot& prev = slots[k ^ 1];
+      if (prev.pending) {
+        uint64_t n = uint64_t(pixels) * prev.num_samples;
+        reduce(prev, k ^ 1);
+        progress.advance(n);
+      }
+    }
+    for (int k = 0; k < 2; ++k)
+      if (slots[k].pending) {
+        uint64_t n = uint64_t(pixels) * slots[k].num_samples;
+        reduce(slots[k], k);
+        progress.advance(n);
+      }
+  }
+  unsigned long long total_rays = 0;
+  check(cudaMemcpy(&total_rays, rays, sizeof total_rays, cudaMemcpyDeviceToHost), "cudaMemcpy of the ray counter");
+  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  stats.samples = uint64_t(pixels) * desc.spp;
+  stats.rays = total_rays;
+  stats.discarded = discarded.load();
+  return film;
+}
+
+}  // namespace luz

@@ -1,0 +1,61 @@
+// Rendering on an NVIDIA GPU through CUDA: the shared integrator (path.h) over
+// Luz's own BVH (accel/bvh.h), one megakernel thread per pixel, one launch per
+// pass of a few samples. Host-only header, no CUDA types: it is included by
+// the CLI and the tests whether or not the build has CUDA (without it,
+// render_cuda_stub.cpp answers "built without CUDA").
+//
+// The image is the CPU's, sample for sample: pixel (x, y) takes sample s with
+// the same Sampler::start / set_sample / filter-first order as render_cpu, so
+// the random numbers are identical and the two films differ only by float
+// rounding (FMA contraction, device sqrt/pow/exp) and by the rare path whose
+// branch that rounding flips.
+#pragma once
+
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+#include "luz/device/cpu/render.h"  // RenderStats
+#include "luz/film/film.h"
+#include "luz/scene/scene.h"
+
+namespace luz {
+
+// Every CUDA failure, as one line (no line breaks). kind says what the CLI
+// makes of it: Unavailable (no driver, driver too old, no GPU, no kernel image
+// for this GPU, or a build without CUDA) is the user's setup, exit status 2;
+// OutOfMemory and Failure (a failed launch, an illegal address...) exit 1.
+class CudaError : public std::runtime_error {
+ public:
+  enum class Kind { Unavailable, OutOfMemory, Failure };
+  CudaError(Kind kind, const std::string& message);
+  Kind kind() const { return kind_; }
+
+ private:
+  Kind kind_;
+};
+
+struct CudaRenderOptions {
+  int device = 0;                 // CUDA device ordinal
+  bool progress = false;          // progress bar on stderr
+  uint32_t samples_per_pass = 0;  // samples per pixel per launch; 0: chosen from the image size
+};
+
+// Whether render_cuda can run: a driver new enough for this build's runtime,
+// a GPU, and kernels compiled for its architecture. When not, *why (if not
+// null) gets the reason as one line, e.g. "no NVIDIA driver found (libcuda.so
+// is not installed)" or "built without CUDA".
+bool cuda_available(std::string* why);
+
+// "NVIDIA H100 80GB HBM3 (sm_90, 79.1 GiB)", or "" when cuda_available() is false.
+std::string cuda_device_name();
+
+// Renders scene.settings.spp samples per pixel. Film sums are double, reduced
+// on the host from each pass's float sums (per pixel: sums, sums of squares,
+// finite-sample count). stats as render_cpu's: seconds of the sample loop
+// (BVH build and uploads excluded, like the CPU's Embree build), samples,
+// rays (camera + bounce + shadow), non-finite samples discarded.
+// Throws CudaError.
+Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderStats& stats);
+
+}  // namespace luz
