@@ -24,43 +24,12 @@
 // fitted inverse; the code here is derived from the CDF below, not copied.
 #pragma once
 
+#include "luz/math/special.h"
 #include "luz/math/vec.h"
 
 namespace luz {
 
 enum class MicrofacetType : uint32_t { Beckmann, GGX };
-
-// Inverse error function: M. Giles, "Approximating the erfinv function", GPU
-// Computing Gems Jade Edition (2011), the single-precision polynomial fit.
-// (The same fit as film/filter.h's erfinv_approx; a copy, so bsdf/ does not
-// depend on film/: one of the two could move to math/.)
-LUZ_INLINE float erfinv_f(float x) {
-  float w = -logf((1.f - x) * (1.f + x)), p;
-  if (w < 5.f) {
-    w = w - 2.5f;
-    p = 2.81022636e-08f;
-    p = 3.43273939e-07f + p * w;
-    p = -3.5233877e-06f + p * w;
-    p = -4.39150654e-06f + p * w;
-    p = 0.00021858087f + p * w;
-    p = -0.00125372503f + p * w;
-    p = -0.00417768164f + p * w;
-    p = 0.246640727f + p * w;
-    p = 1.50140941f + p * w;
-  } else {
-    w = sqrtf(w) - 3.f;
-    p = -0.000200214257f;
-    p = 0.000100950558f + p * w;
-    p = 0.00134934322f + p * w;
-    p = -0.00367342844f + p * w;
-    p = 0.00573950773f + p * w;
-    p = -0.0076224613f + p * w;
-    p = 0.00943887047f + p * w;
-    p = 1.00167406f + p * w;
-    p = 2.83297682f + p * w;
-  }
-  return p * x;
-}
 
 struct MicrofacetDistribution {
   MicrofacetType type = MicrofacetType::GGX;
@@ -175,7 +144,7 @@ struct MicrofacetDistribution {
     float ux = clamp(u.x, 1e-6f, 1.f - 1e-6f);
     float sx;
     if (sin_t < 1e-4f) {
-      sx = erfinv_f(2.f * ux - 1.f);  // normal view: no slope is hidden
+      sx = erfinv(2.f * ux - 1.f);  // normal view: no slope is hidden
     } else {
       float tan_t = sin_t / ws.z, cot_t = ws.z / sin_t;
       float lo = -1.f, hi = erff(cot_t);
@@ -183,7 +152,7 @@ struct MicrofacetDistribution {
       float b = clamp(2.f * ux - 1.f, lo, hi);  // the normal-view solution as a start
       for (int it = 0; it < 64; ++it) {
         if (!(b > lo && b < hi)) b = 0.5f * (lo + hi);
-        float x = erfinv_f(b);
+        float x = erfinv(b);
         float value = k * (1.f + b + tan_t * inv_sqrt_pi * expf(-x * x)) - ux;
         float deriv = k * (1.f - x * tan_t);
         if (fabsf(value) < 1e-7f) break;
@@ -194,9 +163,9 @@ struct MicrofacetDistribution {
         if (hi - lo < 1e-7f) break;
         b -= value / deriv;
       }
-      sx = erfinv_f(clamp(b, -1.f + 6e-8f, 1.f - 6e-8f));
+      sx = erfinv(clamp(b, -1.f + 6e-8f, 1.f - 6e-8f));
     }
-    float sy = erfinv_f(2.f * clamp(u.y, 1e-6f, 1.f - 1e-6f) - 1.f);
+    float sy = erfinv(2.f * clamp(u.y, 1e-6f, 1.f - 1e-6f) - 1.f);
     // Rotate by the azimuth of the stretched view, unstretch.
     float x = (cos_phi * sx - sin_phi * sy) * alpha_u;
     float y = (sin_phi * sx + cos_phi * sy) * alpha_v;
