@@ -112,22 +112,26 @@ int main(int argc, char** argv) {
           luz::path_li(view, rec, r, sampler, scene.settings.integrator, n);
         }
     size_t shadow = size_t(std::count_if(rays.begin(), rays.end(), [](const RecordedRay& r) { return r.shadow; }));
-    luz::EmbreeTracer tracer = embree.tracer();
     tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
-    double raw_best = 1e30;
-    for (int k = 0; k < repeat; ++k) {
-      std::vector<unsigned char> sink(rays.size());
-      double t0 = now();
-      arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
-          for (size_t i = r.begin(); i != r.end(); ++i) {
-            luz::Hit h;
-            sink[i] = rays[i].shadow ? tracer.occluded(rays[i].ray) : tracer.intersect(rays[i].ray, h);
-          }
+    // Best time over `repeat` runs of tracing every recorded ray with `tracer`.
+    auto time_rays = [&](const auto& tracer) {
+      double best_t = 1e30;
+      for (int k = 0; k < repeat; ++k) {
+        std::vector<unsigned char> sink(rays.size());
+        double t0 = now();
+        arena.execute([&] {
+          tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+              luz::Hit h;
+              sink[i] = rays[i].shadow ? tracer.occluded(rays[i].ray) : tracer.intersect(rays[i].ray, h);
+            }
+          });
         });
-      });
-      raw_best = std::min(raw_best, now() - t0);
-    }
+        best_t = std::min(best_t, now() - t0);
+      }
+      return best_t;
+    };
+    double raw_best = time_rays(embree.tracer());
     double raw_rps = rays.size() / raw_best;
 
     // 3. Luz's own BVH: build speed (1 thread, and all), size, and host
@@ -147,20 +151,7 @@ int main(int argc, char** argv) {
     }
     const unsigned nthreads = unsigned(threads > 0 ? threads : tbb::this_task_arena::max_concurrency());
     luz::BvhTracer bvh_tracer = luz::make_bvh_tracer(bvh, view);
-    double bvh_best = 1e30;
-    for (int k = 0; k < repeat; ++k) {
-      std::vector<unsigned char> sink(rays.size());
-      double t0 = now();
-      arena.execute([&] {
-        tbb::parallel_for(tbb::blocked_range<size_t>(0, rays.size(), 4096), [&](const tbb::blocked_range<size_t>& r) {
-          for (size_t i = r.begin(); i != r.end(); ++i) {
-            luz::Hit h;
-            sink[i] = rays[i].shadow ? bvh_tracer.occluded(rays[i].ray) : bvh_tracer.intersect(rays[i].ray, h);
-          }
-        });
-      });
-      bvh_best = std::min(bvh_best, now() - t0);
-    }
+    double bvh_best = time_rays(bvh_tracer);
     double bvh_rps = rays.size() / bvh_best;
     double prims = double(scene.num_triangles() + scene.spheres.size());
 

@@ -19,25 +19,16 @@
 #include <string>
 #include <vector>
 
+#include "cli_helpers.h"
 #include "luz/io/image.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  bool exited = false;  // false: killed by a signal (a crash)
-  int status = -1;      // exit status when exited
-  int signal = 0;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using luz_test::CliResult;
+using luz_test::slurp;
+using Result = CliResult;
 
 void write_file(const fs::path& p, const std::string& text) {
   std::ofstream out(p, std::ios::binary);
@@ -105,59 +96,8 @@ const char* kScene = R"(<?xml version="1.0"?>
 </scene>
 )";
 
-class Cli : public ::testing::Test {
+class Cli : public luz_test::LuzCliTest {
  protected:
-  fs::path dir;
-
-  void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "luz_test_cli_XXXXXX").string();
-    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
-    dir = tmpl;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
-
-  // Runs luz with args in dir; stdout and stderr go to files there, removed after.
-  Result run(const std::vector<std::string>& args) {
-    fs::path out_file = dir / ".stdout", err_file = dir / ".stderr";
-    pid_t pid = ::fork();
-    if (pid == 0) {
-      if (::chdir(dir.c_str()) != 0) ::_exit(127);
-      int o = ::open(out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      int e = ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (o < 0 || e < 0) ::_exit(127);
-      ::dup2(o, 1);
-      ::dup2(e, 2);
-      std::vector<char*> argv;
-      std::string bin = LUZ_BINARY;
-      argv.push_back(bin.data());
-      std::vector<std::string> copy = args;
-      for (std::string& a : copy) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      ::execv(bin.c_str(), argv.data());
-      ::_exit(127);
-    }
-    Result r;
-    int st = 0;
-    EXPECT_EQ(::waitpid(pid, &st, 0), pid);
-    r.exited = WIFEXITED(st);
-    r.status = r.exited ? WEXITSTATUS(st) : -1;
-    r.signal = WIFSIGNALED(st) ? WTERMSIG(st) : 0;
-    r.out = slurp(out_file);
-    r.err = slurp(err_file);
-    fs::remove(out_file);
-    fs::remove(err_file);
-    return r;
-  }
-
-  std::set<std::string> listing() const {
-    std::set<std::string> names;
-    for (const auto& e : fs::directory_iterator(dir)) names.insert(e.path().filename().string());
-    return names;
-  }
-
   // Runs luz on bad input and checks the contract: status 2, one stderr line
   // that contains `file` (and ":line:" when line > 0) and `problem`, nothing written.
   void expect_bad(const std::vector<std::string>& args, const std::string& file, int line, const std::string& problem) {

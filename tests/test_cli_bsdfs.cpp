@@ -1,8 +1,7 @@
 // The luz command line on scenes with the newer BSDF plugins: bad parameters
 // give exit status 2, exactly one stderr line "file:line: error: problem" and
 // no output file; a scene using every supported plugin renders to a finite,
-// lit image. The process-running helper is a copy of tests/test_cli.cpp's
-// (kept separate so that file is not touched).
+// lit image. The process-running fixture is tests/cli_helpers.h.
 #include <fcntl.h>
 #include <gtest/gtest.h>
 #include <stdlib.h>
@@ -18,25 +17,15 @@
 #include <string>
 #include <vector>
 
+#include "cli_helpers.h"
 #include "luz/io/image.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  bool exited = false;
-  int status = -1;
-  int signal = 0;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+using Result = luz_test::CliResult;
+using luz_test::slurp;
 
 int line_of(const std::string& text, const std::string& needle) {
   size_t at = text.find(needle);
@@ -92,58 +81,8 @@ std::string with_bsdf(const std::string& bsdf) {
   return s;
 }
 
-class CliBsdfs : public ::testing::Test {
+class CliBsdfs : public luz_test::LuzCliTest {
  protected:
-  fs::path dir;
-
-  void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "luz_test_cli_bsdfs_XXXXXX").string();
-    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
-    dir = tmpl;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
-
-  Result run(const std::vector<std::string>& args) {
-    fs::path out_file = dir / ".stdout", err_file = dir / ".stderr";
-    pid_t pid = ::fork();
-    if (pid == 0) {
-      if (::chdir(dir.c_str()) != 0) ::_exit(127);
-      int o = ::open(out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      int e = ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (o < 0 || e < 0) ::_exit(127);
-      ::dup2(o, 1);
-      ::dup2(e, 2);
-      std::vector<char*> argv;
-      std::string bin = LUZ_BINARY;
-      argv.push_back(bin.data());
-      std::vector<std::string> copy = args;
-      for (std::string& a : copy) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      ::execv(bin.c_str(), argv.data());
-      ::_exit(127);
-    }
-    Result r;
-    int st = 0;
-    EXPECT_EQ(::waitpid(pid, &st, 0), pid);
-    r.exited = WIFEXITED(st);
-    r.status = r.exited ? WEXITSTATUS(st) : -1;
-    r.signal = WIFSIGNALED(st) ? WTERMSIG(st) : 0;
-    r.out = slurp(out_file);
-    r.err = slurp(err_file);
-    fs::remove(out_file);
-    fs::remove(err_file);
-    return r;
-  }
-
-  std::set<std::string> listing() const {
-    std::set<std::string> names;
-    for (const auto& e : fs::directory_iterator(dir)) names.insert(e.path().filename().string());
-    return names;
-  }
-
   // The scene with this bsdf must be refused at the line of `marker` with `problem`.
   void expect_bad(const std::string& bsdf, const std::string& marker, const std::string& problem) {
     std::string text = with_bsdf(bsdf);

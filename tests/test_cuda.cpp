@@ -46,6 +46,7 @@
 #include <string>
 #include <vector>
 
+#include "cli_helpers.h"
 #include "luz/accel/bvh_build.h"
 #include "luz/device/cpu/render.h"
 #include "luz/device/cuda/pass.h"
@@ -315,64 +316,8 @@ TEST(CudaNoDevice, RenderThrowsOneLineUnavailable) {
 
 // ---------------------------------------------------------------- the CLI
 
-struct Outcome {
-  bool exited = false;
-  int status = -1;
-  std::string out, err;
-};
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-class CliDevice : public ::testing::Test {
+class CliDevice : public luz_test::LuzCliTest {
  protected:
-  fs::path dir;
-  void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "luz_test_cuda_XXXXXX").string();
-    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
-    dir = tmpl;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
-  Outcome run(std::vector<std::string> args) {
-    fs::path o = dir / ".stdout", e = dir / ".stderr";
-    pid_t pid = ::fork();
-    if (pid == 0) {
-      if (::chdir(dir.c_str()) != 0) ::_exit(127);
-      int fo = ::open(o.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      int fe = ::open(e.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (fo < 0 || fe < 0) ::_exit(127);
-      ::dup2(fo, 1);
-      ::dup2(fe, 2);
-      std::string bin = LUZ_BINARY;
-      std::vector<char*> argv{bin.data()};
-      for (std::string& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      ::execv(bin.c_str(), argv.data());
-      ::_exit(127);
-    }
-    int st = 0;
-    EXPECT_EQ(::waitpid(pid, &st, 0), pid);
-    Outcome r;
-    r.exited = WIFEXITED(st);
-    r.status = r.exited ? WEXITSTATUS(st) : -1;
-    r.out = slurp(o);
-    r.err = slurp(e);
-    fs::remove(o);
-    fs::remove(e);
-    return r;
-  }
-  std::set<std::string> listing() const {
-    std::set<std::string> names;
-    for (const auto& e : fs::directory_iterator(dir)) names.insert(e.path().filename().string());
-    return names;
-  }
   static size_t lines(const std::string& s) { return size_t(std::count(s.begin(), s.end(), '\n')); }
   // A tiny render of the Cornell box.
   std::vector<std::string> tiny(const std::string& device) {
@@ -384,7 +329,7 @@ TEST_F(CliDevice, CudaWithoutGpuIsOneLineExit2) {
   std::string why;
   if (cuda_available(&why)) GTEST_SKIP() << "a GPU is present: " << cuda_device_name();
   auto before = listing();
-  Outcome r = run(tiny("cuda"));
+  luz_test::CliResult r = run(tiny("cuda"));
   ASSERT_TRUE(r.exited);
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(lines(r.err), 1u) << r.err;
@@ -396,7 +341,7 @@ TEST_F(CliDevice, CudaWithoutGpuIsOneLineExit2) {
 
 TEST_F(CliDevice, CudaRendersOnAGpu) {
   REQUIRE_GPU();
-  Outcome r = run(tiny("cuda"));
+  luz_test::CliResult r = run(tiny("cuda"));
   ASSERT_TRUE(r.exited);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find(cuda_device_name()), std::string::npos) << r.err;
@@ -410,7 +355,7 @@ TEST_F(CliDevice, CudaRendersOnAGpu) {
 TEST_F(CliDevice, AutoFallsBackToCpuWithOneWarning) {
   std::string why;
   bool gpu = cuda_available(&why);
-  Outcome r = run(tiny("auto"));
+  luz_test::CliResult r = run(tiny("auto"));
   ASSERT_TRUE(r.exited);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_TRUE(fs::exists(dir / "out.pfm"));
@@ -432,7 +377,7 @@ TEST_F(CliDevice, AutoFallsBackToCpuWithOneWarning) {
 
 TEST_F(CliDevice, AutoOnBadInputIsStillOneLine) {
   auto before = listing();
-  Outcome r = run({"render", "missing.xml", "-o", "out.pfm", "--device", "auto"});
+  luz_test::CliResult r = run({"render", "missing.xml", "-o", "out.pfm", "--device", "auto"});
   ASSERT_TRUE(r.exited);
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(lines(r.err), 1u) << r.err;
@@ -442,7 +387,7 @@ TEST_F(CliDevice, AutoOnBadInputIsStillOneLine) {
 
 TEST_F(CliDevice, BogusDeviceIsRefused) {
   auto before = listing();
-  Outcome r = run(tiny("bogus"));
+  luz_test::CliResult r = run(tiny("bogus"));
   ASSERT_TRUE(r.exited);
   EXPECT_EQ(r.status, 2);
   EXPECT_EQ(lines(r.err), 1u) << r.err;
@@ -451,12 +396,12 @@ TEST_F(CliDevice, BogusDeviceIsRefused) {
 }
 
 TEST_F(CliDevice, CpuIsTheDefaultAndNeverWarns) {
-  Outcome r = run({"render", kCornell, "-o", "out.pfm", "-D", "res=16", "--spp", "2"});
+  luz_test::CliResult r = run({"render", kCornell, "-o", "out.pfm", "-D", "res=16", "--spp", "2"});
   ASSERT_TRUE(r.exited);
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.err.find("warning"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("on the CPU\n"), std::string::npos) << r.err;
-  Outcome c = run({"render", kCornell, "-o", "cpu.pfm", "-D", "res=16", "--spp", "2", "--device", "cpu"});
+  luz_test::CliResult c = run({"render", kCornell, "-o", "cpu.pfm", "-D", "res=16", "--spp", "2", "--device", "cpu"});
   ASSERT_EQ(c.status, 0) << c.err;
   EXPECT_EQ(luz::read_pfm((dir / "out.pfm").string()).rgb, luz::read_pfm((dir / "cpu.pfm").string()).rgb);
 }
