@@ -42,10 +42,12 @@
 #include "luz/io/image.h"
 #include "luz/io/scene_loader.h"
 #include "luz/scene/scene.h"
+#include "furnace.h"
 #include "stat_helpers.h"
 
 using namespace luz;
 using luz_test::sidak_z;
+using namespace luz_test;
 
 namespace {
 
@@ -213,76 +215,8 @@ TEST(Materials, VeachMisMatchesTungsten) {
 
 namespace {
 
-constexpr int kRes = 32;
-constexpr double kCamZ = -3.0, kTanHalf = 0.5;
-
-Scene furnace_scene(const Bsdf& material, IntegratorType type, uint32_t spp, uint64_t seed) {
-  Scene s;
-  uint32_t m = s.add_material(material);
-  s.add_sphere({0.f, 0.f, 0.f}, 1.f, m, nullptr, false);
-  Emitter env;
-  env.type = EmitterType::Constant;
-  env.radiance = {1.f, 1.f, 1.f};
-  s.emitters.push_back(env);
-  s.camera.origin = {0.f, 0.f, float(kCamZ)};
-  s.camera.x_axis = {1.f, 0.f, 0.f};
-  s.camera.y_axis = {0.f, 1.f, 0.f};
-  s.camera.z_axis = {0.f, 0.f, 1.f};
-  s.camera.tan_half_x = s.camera.tan_half_y = float(kTanHalf);
-  s.camera.width = s.camera.height = kRes;
-  s.settings.sampler = SamplerType::Independent;
-  s.settings.spp = spp;
-  s.settings.seed = seed;
-  s.settings.filter = FilterKind::Box;
-  s.settings.integrator.type = type;
-  s.settings.integrator.max_depth = -1;
-  s.compile();
-  return s;
-}
 
 // cos θo at the unit sphere for film position (fx, fy), or -1 if the ray misses.
-double view_cosine(double fx, double fy) {
-  double sx = (1.0 - 2.0 * fx / kRes) * kTanHalf, sy = (1.0 - 2.0 * fy / kRes) * kTanHalf;
-  double len = std::sqrt(sx * sx + sy * sy + 1.0);
-  double d[3] = {sx / len, sy / len, 1.0 / len};
-  double b = kCamZ * d[2], c = kCamZ * kCamZ - 1.0, disc = b * b - c;
-  if (disc <= 0) return -1;
-  double t = -b - std::sqrt(disc);
-  double n[3] = {t * d[0], t * d[1], kCamZ + t * d[2]};
-  return -(n[0] * d[0] + n[1] * d[1] + n[2] * d[2]);
-}
-
-struct CheckResult {
-  double worst_z = 0, threshold = 0, image_z = 0, max_abs_diff = 0;
-  int checked = 0;
-};
-
-// |mean - expected| ≤ z σ + bias per pixel and channel, and the image mean.
-CheckResult check(const Film& f, const std::vector<double>& expected, const std::vector<double>& bias,
-                  const std::vector<bool>& valid) {
-  CheckResult r;
-  std::vector<double> mean = luz_test::pixel_means(f), var = f.variance_of_mean();
-  for (size_t i = 0; i < valid.size(); ++i) r.checked += valid[i] ? 3 : 0;
-  r.threshold = sidak_z(kFamilyAlpha, r.checked + 3);
-  double img_diff[3] = {0, 0, 0}, img_var[3] = {0, 0, 0}, img_bias = 0;
-  for (size_t i = 0; i < valid.size(); ++i) {
-    if (!valid[i]) continue;
-    img_bias += bias[i];
-    for (int c = 0; c < 3; ++c) {
-      double d = mean[3 * i + c] - expected[i];
-      double floor = luz_test::rounding_floor(expected[i]);
-      double sigma = std::sqrt(var[3 * i + c] + floor * floor);
-      r.worst_z = std::max(r.worst_z, (std::fabs(d) - bias[i]) / sigma);
-      r.max_abs_diff = std::max(r.max_abs_diff, std::fabs(d));
-      img_diff[c] += d;
-      img_var[c] += var[3 * i + c] + floor * floor;
-    }
-  }
-  for (int c = 0; c < 3; ++c)
-    r.image_z = std::max(r.image_z, (std::fabs(img_diff[c]) - img_bias) / std::sqrt(img_var[c]));
-  return r;
-}
-
 }  // namespace
 
 TEST(Materials, GlassFurnaceIsOneEverywhere) {
@@ -297,7 +231,7 @@ TEST(Materials, GlassFurnaceIsOneEverywhere) {
   for (const Case& c : cases)
     for (IntegratorType t : kAll) {
       Film f = render(furnace_scene(c.bsdf, t, 256, 5));
-      CheckResult r = check(f, one, zero, all);
+      CheckResult r = check(f, one, zero, all, kFamilyAlpha);
       std::printf("[furnace %s %-5s] worst pixel z %.2f (threshold %.2f), image-mean z %.2f, max |mean-1| %.2e\n",
                   c.label, name(t), r.worst_z, r.threshold, r.image_z, r.max_abs_diff);
       EXPECT_LE(r.worst_z, r.threshold) << c.label << " " << name(t);
@@ -306,7 +240,7 @@ TEST(Materials, GlassFurnaceIsOneEverywhere) {
   // Negative control: a glass that absorbs 1% per transmission must fail.
   Film f = render(furnace_scene(Bsdf::make_smooth_dielectric(1.5f, 1.f, {1, 1, 1}, {0.99f, 0.99f, 0.99f}),
                                 IntegratorType::Path, 256, 5));
-  CheckResult bad = check(f, one, zero, all);
+  CheckResult bad = check(f, one, zero, all, kFamilyAlpha);
   EXPECT_GT(bad.image_z, bad.threshold);
 }
 
@@ -430,7 +364,7 @@ TEST(Materials, RoughConductorFurnaceMatchesSingleScatteringAlbedo) {
       Bsdf b = Bsdf::make_rough_conductor(c.ggx ? MicrofacetType::GGX : MicrofacetType::Beckmann, float(c.alpha),
                                           float(c.alpha), {0, 0, 0}, {1, 1, 1});
       Film f = render(furnace_scene(b, t, t == IntegratorType::Light ? 4096 : 1024, 13));
-      CheckResult r = check(f, exp, bias, valid);
+      CheckResult r = check(f, exp, bias, valid, kFamilyAlpha);
       std::printf("[furnace roughconductor %s alpha %.1f %-5s] albedo min %.3f, table error %.1e, worst pixel z %.2f "
                   "(threshold %.2f), image-mean z %.2f\n",
                   c.ggx ? "ggx" : "beckmann", c.alpha, name(t), lo, tab_err, r.worst_z, r.threshold, r.image_z);
@@ -438,7 +372,7 @@ TEST(Materials, RoughConductorFurnaceMatchesSingleScatteringAlbedo) {
       EXPECT_LE(r.image_z, r.threshold) << name(t);
       if (t == IntegratorType::Path) {
         std::vector<double> flat(exp.size(), 1.0), nob(exp.size(), 0.0);
-        CheckResult bad = check(f, flat, nob, valid);
+        CheckResult bad = check(f, flat, nob, valid, kFamilyAlpha);
         EXPECT_GT(bad.image_z, bad.threshold) << "a lossless expectation must be rejected";
       }
     }
