@@ -142,7 +142,7 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
             Vec3 d = target - shadow.o;
             float dist = length(d);
             shadow.d = d / dist;
-            shadow.tmax = dist * (1.f - 1e-4f);
+            shadow.tmax = dist;  // both ends offset (Wächter–Binder): no shrink needed
           }
           ++rays;
           if (!tracer.occluded(shadow)) {
