@@ -328,6 +328,16 @@ TEST_F(Cli, DefineForUndeclaredParameter) {
              "film size");
 }
 
+// MTL values are read by tinyobjloader, which turns "nan" into 0 silently: Luz
+// checks the MTL files an OBJ names, line by line.
+TEST_F(Cli, NonFiniteMtlValue) {
+  write_file(dir / "model.obj", "mtllib model.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n");
+  write_file(dir / "model.mtl", "newmtl a\nKd 0.5 nan 0.5\n");
+  expect_bad({"render", "model.obj", "-o", "out.exr"}, "model.mtl", 2, "'nan' is not a finite number");
+  write_file(dir / "model.mtl", "newmtl a\nKd 0.5 0.5 0.5\nNs 1e999\n");
+  expect_bad({"render", "model.obj", "-o", "out.exr"}, "model.mtl", 3, "not a finite number");
+}
+
 TEST_F(Cli, DefineForObjScene) {
   write_file(dir / "model.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
   expect_bad({"render", "model.obj", "-o", "out.exr", "-D", "w=4"}, "model.obj", 0, "-D applies to Mitsuba XML");

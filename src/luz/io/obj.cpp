@@ -18,6 +18,41 @@ namespace luz {
 
 namespace {
 
+// Whitespace-separated tokens of one line.
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cur;
+  for (char c : line) {
+    if (c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f') {
+      if (!cur.empty()) out.push_back(std::move(cur));
+      cur.clear();
+    } else {
+      cur += c;
+    }
+  }
+  if (!cur.empty()) out.push_back(std::move(cur));
+  return out;
+}
+
+// A finite number, or an error naming the file, the line and the value.
+void check_number(const std::string& path_, const std::string& t, int line_no, const std::string& key) {
+  const char* b = t.data();
+  const char* e = b + t.size();
+  if (b < e && *b == '+') ++b;
+  float f = 0;
+  auto r = std::from_chars(b, e, f);
+  if (r.ptr != e || b == e || (r.ec != std::errc() && r.ec != std::errc::result_out_of_range))
+    throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a number");
+  if (r.ec == std::errc::result_out_of_range) {
+    // Out of range is an overflow, or an underflow (harmless: it reads as 0).
+    double d = std::strtod(std::string(b, e).c_str(), nullptr);
+    if (std::fabs(d) > 1.0)
+      throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a finite number (out of range)");
+  } else if (!std::isfinite(f)) {
+    throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a finite number");
+  }
+}
+
 // tinyobjloader is lenient where Luz must not be: a coordinate it cannot parse
 // ("nan", "abc") silently becomes 0, and face indices are not range-checked
 // (an index past the end would read out of bounds). So the file is checked
@@ -62,37 +97,8 @@ class ObjChecker {
   }
 
  private:
-  static std::vector<std::string> split(const std::string& line) {
-    std::vector<std::string> out;
-    std::string cur;
-    for (char c : line) {
-      if (c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f') {
-        if (!cur.empty()) out.push_back(std::move(cur));
-        cur.clear();
-      } else {
-        cur += c;
-      }
-    }
-    if (!cur.empty()) out.push_back(std::move(cur));
-    return out;
-  }
-
   void number(const std::string& t, int line_no, const std::string& key) const {
-    const char* b = t.data();
-    const char* e = b + t.size();
-    if (b < e && *b == '+') ++b;
-    float f = 0;
-    auto r = std::from_chars(b, e, f);
-    if (r.ptr != e || b == e || (r.ec != std::errc() && r.ec != std::errc::result_out_of_range))
-      throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a number");
-    if (r.ec == std::errc::result_out_of_range) {
-      // Out of range is an overflow, or an underflow (harmless: it reads as 0).
-      double d = std::strtod(std::string(b, e).c_str(), nullptr);
-      if (std::fabs(d) > 1.0)
-        throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a finite number (out of range)");
-    } else if (!std::isfinite(f)) {
-      throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a finite number");
-    }
+    check_number(path_, t, line_no, key);
   }
 
   // "v", "v/t", "v//n" or "v/t/n": each index non-zero and in range.
@@ -132,6 +138,33 @@ class ObjChecker {
   size_t total_v_ = 0, total_vt_ = 0, total_vn_ = 0;
 };
 
+// The MTL files an OBJ names, checked the same way: tinyobjloader reads an
+// unparsable or non-finite colour or exponent as 0 without a word.
+void check_mtl_files(const std::string& obj_path, const std::string& obj_text) {
+  std::istringstream lines(obj_text);
+  std::string line;
+  while (std::getline(lines, line)) {
+    std::vector<std::string> tok = split(line.substr(0, line.find('#')));
+    if (tok.size() < 2 || tok[0] != "mtllib") continue;
+    for (size_t k = 1; k < tok.size(); ++k) {
+      std::filesystem::path mtl = std::filesystem::path(obj_path).parent_path() / tok[k];
+      std::ifstream in(mtl);
+      if (!in) continue;  // tinyobjloader's own warning path: materials fall back to the default
+      std::string ml;
+      for (int n = 1; std::getline(in, ml); ++n) {
+        std::vector<std::string> t = split(ml.substr(0, ml.find('#')));
+        if (t.empty()) continue;
+        static const char* kNumeric[] = {"Kd", "Ks", "Ke", "Ka", "Tf", "Ns", "Ni", "d", "Tr"};
+        bool numeric = false;
+        for (const char* key : kNumeric) numeric = numeric || t[0] == key;
+        if (!numeric) continue;
+        if (t.size() < 2) throw InputError(mtl.string(), n, "'" + t[0] + "' needs a value");
+        for (size_t j = 1; j < t.size(); ++j) check_number(mtl.string(), t[j], n, t[0]);
+      }
+    }
+  }
+}
+
 std::string read_text(const std::string& path) {
   std::error_code ec;
   std::filesystem::file_status st = std::filesystem::status(path, ec);
@@ -147,7 +180,9 @@ std::string read_text(const std::string& path) {
 }  // namespace
 
 ObjMesh read_obj(const std::string& path, bool with_materials) {
-  ObjChecker(path, read_text(path)).check();
+  const std::string text = read_text(path);
+  ObjChecker(path, text).check();
+  if (with_materials) check_mtl_files(path, text);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
