@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "luz/film/film.h"
+#include "luz/io/image.h"
 
 namespace luz_test {
 
@@ -69,5 +70,53 @@ inline Blocks make_blocks(const luz::Film& f, int b) {
 // operations, each within FLT_EPSILON/2 relative) can move a sample by at most
 // ~64 FLT_EPSILON of its magnitude, and so its mean.
 inline double rounding_floor(double magnitude) { return 64.0 * FLT_EPSILON * std::max(std::fabs(magnitude), 1e-3); }
+
+// A reference image's block means and the variance of each block mean, over
+// nbx × nby blocks of bpx × bpx reference pixels (3 values per block, RGB).
+// The reference's per-pixel noise comes from the residuals
+// r = p - (l + r + u + d)/4 against the 4-neighbour average, which cancel
+// linear gradients; for independent pixel noise of variance σ²,
+// r ~ N(0, 1.25 σ²). The median of |r| (σ_r = 1.4826 · median|r|) keeps the
+// few pixels on hard edges (light outlines, silhouettes) from passing for
+// noise. rel_noise_median: the median over blocks of the per-pixel relative
+// noise (blocks with mean > 1e-3).
+struct ReferenceBlocks {
+  std::vector<double> mean, var;
+  double rel_noise_median = 0;
+};
+
+inline ReferenceBlocks reference_blocks(const luz::Image& ref, int nbx, int nby, int bpx) {
+  auto at = [&](int x, int y, int c) {
+    x = x < 0 ? 1 : (x >= ref.width ? ref.width - 2 : x);  // reflect at the border
+    y = y < 0 ? 1 : (y >= ref.height ? ref.height - 2 : y);
+    return double(ref.rgb[3 * (size_t(y) * ref.width + x) + c]);
+  };
+  ReferenceBlocks R;
+  R.mean.assign(size_t(nbx) * nby * 3, 0.0);
+  R.var.assign(size_t(nbx) * nby * 3, 0.0);
+  std::vector<double> absr(size_t(bpx) * bpx), rel_noise;
+  for (int by = 0; by < nby; ++by)
+    for (int bx = 0; bx < nbx; ++bx)
+      for (int c = 0; c < 3; ++c) {
+        double s1 = 0;
+        size_t k = 0;
+        for (int v = by * bpx; v < (by + 1) * bpx; ++v)
+          for (int u = bx * bpx; u < (bx + 1) * bpx; ++u) {
+            double p = at(u, v, c);
+            s1 += p;
+            absr[k++] = std::fabs(p - 0.25 * (at(u - 1, v, c) + at(u + 1, v, c) + at(u, v - 1, c) + at(u, v + 1, c)));
+          }
+        std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
+        double sigma_r = 1.4826 * absr[absr.size() / 2];
+        double pixel_var = sigma_r * sigma_r / 1.25;
+        size_t b = 3 * (size_t(by) * nbx + bx) + c;
+        R.mean[b] = s1 / absr.size();
+        R.var[b] = pixel_var / absr.size();
+        if (R.mean[b] > 1e-3) rel_noise.push_back(std::sqrt(pixel_var) / R.mean[b]);
+      }
+  std::sort(rel_noise.begin(), rel_noise.end());
+  R.rel_noise_median = rel_noise.empty() ? 0 : rel_noise[rel_noise.size() / 2];
+  return R;
+}
 
 }  // namespace luz_test

@@ -107,38 +107,16 @@ VeachResult compare_veach(const Image& ref, int depth, uint32_t spp, double scal
   Film film = render(s);
   r.secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 
-  auto at = [&](int x, int y, int c) {
-    x = x < 0 ? 1 : (x >= ref.width ? ref.width - 2 : x);
-    y = y < 0 ? 1 : (y >= ref.height ? ref.height - 2 : y);
-    return double(ref.rgb[3 * (size_t(y) * ref.width + x) + c]);
-  };
   luz_test::Blocks L = luz_test::make_blocks(film, kVBlock);
   for (double& m : L.mean) m *= scale;
   for (double& v : L.var) v *= scale * scale;
   const int nbx = kVW / kVBlock, nby = kVH / kVBlock, bpx = kVBlock * f;
   EXPECT_EQ(L.bw, nbx);
   EXPECT_EQ(L.bh, nby);
-  std::vector<double> Rm(size_t(nbx) * nby * 3), Rv(size_t(nbx) * nby * 3), absr(size_t(bpx) * bpx), rel_noise;
-  for (int by = 0; by < nby; ++by)
-    for (int bx = 0; bx < nbx; ++bx)
-      for (int c = 0; c < 3; ++c) {
-        double s1 = 0;
-        size_t k = 0;
-        for (int v = by * bpx; v < (by + 1) * bpx; ++v)
-          for (int u = bx * bpx; u < (bx + 1) * bpx; ++u) {
-            double p = at(u, v, c);
-            s1 += p;
-            absr[k++] = std::fabs(p - 0.25 * (at(u - 1, v, c) + at(u + 1, v, c) + at(u, v - 1, c) + at(u, v + 1, c)));
-          }
-        std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
-        double sigma_r = 1.4826 * absr[absr.size() / 2];
-        size_t b = 3 * (size_t(by) * nbx + bx) + c;
-        Rm[b] = s1 / absr.size();
-        Rv[b] = sigma_r * sigma_r / 1.25 / absr.size();
-        if (Rm[b] > 1e-3) rel_noise.push_back(sigma_r / std::sqrt(1.25) / Rm[b]);
-      }
-  std::sort(rel_noise.begin(), rel_noise.end());
-  r.ref_noise_median = rel_noise.empty() ? 0 : rel_noise[rel_noise.size() / 2];
+  const luz_test::ReferenceBlocks R = luz_test::reference_blocks(ref, nbx, nby, bpx);
+  const std::vector<double>& Rm = R.mean;
+  const std::vector<double>& Rv = R.var;
+  r.ref_noise_median = R.rel_noise_median;
 
   r.thr = sidak_z(kFamilyAlpha, 3.0 * nbx * nby + 3);
   for (int by = 0; by < nby; ++by)

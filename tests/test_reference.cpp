@@ -80,47 +80,18 @@ TEST(Reference, BitterliCornellBoxMatchesTungsten) {
   double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_EQ(stats.discarded, 0u);
 
-  // Reference: box-average f×f pixels per Luz pixel, then 8×8 Luz pixels per
-  // block. Its per-pixel noise, per block and channel, from the residuals
-  // r = p - (l + r + u + d)/4 against the 4-neighbour average, which cancel
-  // linear gradients; for independent pixel noise of variance σ²,
-  // r ~ N(0, 1.25 σ²). The median of |r| (σ_r = 1.4826 · median|r|) keeps the
-  // few pixels on hard edges (the light's outline, the boxes' silhouettes)
-  // from passing for noise.
-  auto at = [&](int x, int y, int c) {
-    x = x < 0 ? 1 : (x >= ref.width ? ref.width - 2 : x);  // reflect at the border
-    y = y < 0 ? 1 : (y >= ref.height ? ref.height - 2 : y);
-    return double(ref.rgb[3 * (size_t(y) * ref.width + x) + c]);
-  };
+  // Reference: f×f reference pixels per Luz pixel, 8×8 Luz pixels per block;
+  // its own noise per block from neighbour residuals (stat_helpers.h).
   luz_test::Blocks L = luz_test::make_blocks(film, kBlock);
   const int nb = kRes / kBlock, bpx = kBlock * f;  // reference pixels per block, per axis
-  std::vector<double> Rm(size_t(nb) * nb * 3, 0.0), Rv(size_t(nb) * nb * 3, 0.0), rel_noise;
-  std::vector<double> absr(size_t(bpx) * bpx);
-  for (int by = 0; by < nb; ++by)
-    for (int bx = 0; bx < nb; ++bx)
-      for (int c = 0; c < 3; ++c) {
-        double s1 = 0;
-        size_t k = 0;
-        for (int v = by * bpx; v < (by + 1) * bpx; ++v)
-          for (int u = bx * bpx; u < (bx + 1) * bpx; ++u) {
-            double p = at(u, v, c);
-            s1 += p;
-            absr[k++] = std::fabs(p - 0.25 * (at(u - 1, v, c) + at(u + 1, v, c) + at(u, v - 1, c) + at(u, v + 1, c)));
-          }
-        std::nth_element(absr.begin(), absr.begin() + absr.size() / 2, absr.end());
-        double sigma_r = 1.4826 * absr[absr.size() / 2];
-        double pixel_var = sigma_r * sigma_r / 1.25;
-        size_t b = 3 * (size_t(by) * nb + bx) + c;
-        Rm[b] = s1 / absr.size();
-        Rv[b] = pixel_var / absr.size();
-        if (Rm[b] > 1e-3) rel_noise.push_back(std::sqrt(pixel_var) / Rm[b]);
-      }
+  const luz_test::ReferenceBlocks R = luz_test::reference_blocks(ref, nb, nb, bpx);
+  const std::vector<double>& Rm = R.mean;
+  const std::vector<double>& Rv = R.var;
 
   // Diagnostics: the reference's per-pixel relative noise (median over
   // blocks), its share of the block sigma, and the worst block z-score if the
   // reference were taken as exact.
   {
-    std::sort(rel_noise.begin(), rel_noise.end());
     double worst_luz_only = 0;
     std::vector<double> ratio;
     for (int by = 0; by < nb; ++by)
@@ -133,7 +104,7 @@ TEST(Reference, BitterliCornellBoxMatchesTungsten) {
     std::sort(ratio.begin(), ratio.end());
     std::printf("[reference] reference per-pixel noise: median %.2f%% relative (half-float half-ulp: %.3f%%); "
                 "block sigma ref/luz: median %.2f, max %.2f; worst block z against Luz's sigma alone %.2f\n",
-                100 * rel_noise[rel_noise.size() / 2], 100 * kHalfUlp, ratio[ratio.size() / 2], ratio.back(),
+                100 * R.rel_noise_median, 100 * kHalfUlp, ratio[ratio.size() / 2], ratio.back(),
                 worst_luz_only);
   }
 
