@@ -61,12 +61,7 @@ struct BlinnPhongBsdf {
     } else {
       return s;  // absorbed
     }
-    if (!(s.wi.z > 0.f)) return s;
-    s.pdf = pdf(wo, s.wi);
-    if (!(s.pdf > 0.f)) return s;
-    s.weight = f(wo, s.wi) * (s.wi.z / s.pdf);
-    s.valid = true;
-    return s;
+    return finish_reflection_sample(*this, wo, s);
   }
 };
 

@@ -100,12 +100,7 @@ struct PhongBsdf {
     } else {
       return s;  // absorbed
     }
-    if (s.wi.z <= 0.f) return s;  // specular lobe below the horizon
-    s.pdf = pdf(wo, s.wi);
-    if (!(s.pdf > 0.f)) return s;
-    s.weight = f(wo, s.wi) * (s.wi.z / s.pdf);
-    s.valid = true;
-    return s;
+    return finish_reflection_sample(*this, wo, s);
   }
 };
 

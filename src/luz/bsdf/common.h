@@ -48,4 +48,17 @@ struct BsdfSample {
   float eta = 1.f;
 };
 
+// The common ending of sampling a non-delta reflection mixture: once s.wi
+// is chosen by one lobe, the sample's density is the whole mixture's pdf()
+// and its weight f·cos/pdf; a direction below the horizon is a failed sample.
+template <class Model>
+LUZ_INLINE BsdfSample finish_reflection_sample(const Model& m, Vec3 wo, BsdfSample s) {
+  if (!(s.wi.z > 0.f)) return s;
+  s.pdf = m.pdf(wo, s.wi);
+  if (!(s.pdf > 0.f)) return s;
+  s.weight = m.f(wo, s.wi) * (s.wi.z / s.pdf);
+  s.valid = true;
+  return s;
+}
+
 }  // namespace luz

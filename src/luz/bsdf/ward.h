@@ -64,12 +64,7 @@ struct WardBsdf {
     } else {
       s.wi = square_to_cosine_hemisphere(u2);
     }
-    if (!(s.wi.z > 0.f)) return s;
-    s.pdf = pdf(wo, s.wi);
-    if (!(s.pdf > 0.f)) return s;
-    s.weight = f(wo, s.wi) * (s.wi.z / s.pdf);
-    s.valid = true;
-    return s;
+    return finish_reflection_sample(*this, wo, s);
   }
 };
 
