@@ -20,6 +20,7 @@
 #include "luz/accel/bvh_build.h"
 #include "luz/accel/embree_tracer.h"
 #include "luz/device/cpu/render.h"
+#include "luz/device/cuda/render_cuda.h"
 #include "luz/io/error.h"
 #include "luz/io/scene_loader.h"
 
@@ -52,6 +53,7 @@ int main(int argc, char** argv) {
   std::string scene_path, label;
   luz::Defines defines;
   int threads = 0, repeat = 3, spp = 0;
+  std::string device = "cpu";
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "-D" && i + 1 < argc) {
@@ -64,6 +66,12 @@ int main(int argc, char** argv) {
       spp = std::atoi(argv[++i]);
     } else if (a == "--repeat" && i + 1 < argc) {
       repeat = std::max(1, std::atoi(argv[++i]));
+    } else if (a == "--device" && i + 1 < argc) {
+      device = argv[++i];
+      if (device != "cpu" && device != "cuda") {
+        std::fprintf(stderr, "luz_bench: --device must be cpu or cuda, not '%s'\n", device.c_str());
+        return 2;
+      }
     } else if (a == "--label" && i + 1 < argc) {
       label = argv[++i];
     } else if (scene_path.empty()) {
@@ -74,7 +82,12 @@ int main(int argc, char** argv) {
     }
   }
   if (scene_path.empty()) {
-    std::fprintf(stderr, "usage: luz_bench SCENE [-D name=value]... [--threads N] [--repeat K] [--label L]\n");
+    std::fprintf(stderr, "usage: luz_bench SCENE [-D name=value]... [--threads N] [--repeat K] [--label L] [--device cpu|cuda]\n");
+    return 2;
+  }
+  std::string why;
+  if (device == "cuda" && !luz::cuda_available(&why)) {
+    std::fprintf(stderr, "luz_bench: error: --device cuda: %s\n", why.c_str());
     return 2;
   }
   try {
@@ -172,7 +185,39 @@ int main(int argc, char** argv) {
     std::printf("| %s | %d×%d | %u | %.3f | %.2f | %.2f | %.2f | %.2f | %.2f | %.1f |\n", label.c_str(), cam.width,
                 cam.height, scene.settings.spp, sps * 1e-6, rps * 1e-6, raw_rps * 1e-6, rps / raw_rps, bvh_rps * 1e-6,
                 prims / build1 * 1e-6, double(bvh.bytes()) / std::max(prims, 1.0));
+
+    // 4. With --device cuda: the same render on the GPU (best of `repeat`),
+    //    and Luz's BVH on the GPU tracing the recorded rays. One "G|" row:
+    //    GPU and CPU figures of this run side by side.
+    if (device == "cuda") {
+      luz::RenderStats gstats;
+      double gbest = 1e30;
+      for (int k = 0; k < repeat; ++k) {
+        luz::RenderStats s;
+        luz::render_cuda(scene, luz::CudaRenderOptions{}, s);
+        if (s.seconds < gbest) gbest = s.seconds, gstats = s;
+      }
+      std::vector<luz::Ray> ray_list(rays.size());
+      std::vector<uint8_t> kinds(rays.size());
+      for (size_t i = 0; i < rays.size(); ++i) ray_list[i] = rays[i].ray, kinds[i] = rays[i].shadow ? 1 : 0;
+      uint64_t ghits = 0;
+      double gtrace = luz::trace_rays_cuda(scene, ray_list, kinds, std::max(repeat, 5), &ghits);
+      double gsps = gstats.samples / gstats.seconds, grps = gstats.rays / gstats.seconds;
+      double gtrace_rps = rays.size() / gtrace;
+      const std::string gpu = luz::cuda_device_name();
+      std::printf("gpu          %s\n", gpu.c_str());
+      std::printf("gpu path     %.3f s  %.3f Msamples/s  %.2f Mrays/s  (%.1f × the CPU's samples/s)\n", gstats.seconds,
+                  gsps * 1e-6, grps * 1e-6, gsps / sps);
+      std::printf("gpu bvh      %.1f Mrays/s tracing the %zu recorded rays (%.0f%% shadow)\n", gtrace_rps * 1e-6,
+                  rays.size(), 100.0 * shadow / rays.size());
+      std::printf("G| %s | %d×%d | %u | %.2f | %.1f | %.3f | %.1f | %.1f | %.2f | %.1f |\n", label.c_str(), cam.width,
+                  cam.height, scene.settings.spp, gsps * 1e-6, grps * 1e-6, sps * 1e-6, gsps / sps, gtrace_rps * 1e-6,
+                  prims / build1 * 1e-6, double(bvh.bytes()) / std::max(prims, 1.0));
+    }
     return 0;
+  } catch (const luz::CudaError& e) {
+    std::fprintf(stderr, "luz_bench: error: %s\n", e.what());
+    return 2;
   } catch (const luz::InputError& e) {
     std::fprintf(stderr, "luz_bench: error: %s\n", e.what());
     return 2;

@@ -46,9 +46,12 @@
 #include <string>
 #include <vector>
 
+#include "chi2.h"
 #include "cli_helpers.h"
 #include "luz/accel/bvh_build.h"
+#include "luz/accel/embree_tracer.h"
 #include "luz/device/cpu/render.h"
+#include "luz/device/cuda/batch.h"
 #include "luz/device/cuda/pass.h"
 #include "luz/device/cuda/render_cuda.h"
 #include "luz/io/image.h"
@@ -140,7 +143,7 @@ Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_ou
 // ---------------------------------------------------------------- checks
 
 // Two independent images agree within their noise (block z-test, Šidák).
-void expect_agree(const Film& a, const Film& b, const char* what) {
+void expect_agree(const Film& a, const Film& b, const char* what, double family_alpha = kFamilyAlpha) {
   luz_test::Blocks A = luz_test::make_blocks(a, kBlock), B = luz_test::make_blocks(b, kBlock);
   double worst = 0, rel_sum = 0;
   int worst_bx = 0, worst_by = 0, worst_c = 0, n = 0;
@@ -154,7 +157,7 @@ void expect_agree(const Film& a, const Film& b, const char* what) {
         if (m > 0) rel_sum += sigma / m, ++n;
         if (z > worst) worst = z, worst_bx = bx, worst_by = by, worst_c = c;
       }
-  const double thr = luz_test::sidak_z(kFamilyAlpha, 3.0 * A.bw * A.bh);
+  const double thr = luz_test::sidak_z(family_alpha, 3.0 * A.bw * A.bh);
   std::printf("[%s] worst block z %.2f at (%d,%d) ch %d, threshold %.2f, mean block sigma %.2f%%\n", what, worst,
               worst_bx, worst_by, worst_c, thr, n ? 100 * rel_sum / n : 0.0);
   EXPECT_LE(worst, thr) << what;
@@ -184,6 +187,185 @@ void expect_same_samples(const Film& a, const Film& b, double max_diverged, cons
 }
 
 // ---------------------------------------------------------------- on the host
+
+// ---------------------------------------------------------------- BSDF scenes and batches
+
+// The material scene of bench/run, one BSDF model at a time (Mitsuba's
+// defaults for each plugin): spheres on a plane under an area light and a
+// constant sky, so smooth and rough glass, metals and coated models all meet
+// Luz's BVH, transmission and delta lobes included.
+const char* const kMaterialModels[] = {"diffuse",   "phong",          "blinnphong", "ward",
+                                       "conductor", "roughconductor", "dielectric", "roughdielectric",
+                                       "thindielectric", "plastic"};
+constexpr int kNumMaterialModels = int(sizeof kMaterialModels / sizeof kMaterialModels[0]);
+
+Scene material_scene(const char* model, uint32_t spp, uint64_t seed) {
+  Scene s = load_scene(LUZ_SOURCE_DIR "/bench/scenes/material-spheres.xml", {{"material", model}, {"res", "32"}});
+  s.settings.sampler = SamplerType::Independent;
+  s.settings.spp = spp;
+  s.settings.seed = seed;
+  return s;
+}
+
+// BSDFs whose sampling the GPU must reproduce: one per sampling routine
+// (cosine lobe, Phong and Blinn-Phong lobes, Ward, VNDF Beckmann and GGX,
+// anisotropic, refraction from both sides, the plastic coat, a blend).
+struct BatchCase {
+  const char* name;
+  Bsdf b;
+  bool both_sides;  // bin over the whole sphere (transmission)
+};
+std::vector<BatchCase> batch_cases() {
+  Color eta, k;
+  find_conductor_preset("Cu", eta, k);
+  const MicrofacetType B = MicrofacetType::Beckmann, G = MicrofacetType::GGX;
+  return {
+      {"diffuse", Bsdf::make_diffuse({.7f, .7f, .7f}), false},
+      {"phong kd .3 ks .6 n 30", Bsdf::make_phong({.3f, .3f, .3f}, {.6f, .6f, .6f}, 30.f), false},
+      {"blinnphong kd .2 ks .7 n 50", Bsdf::make_blinn_phong({.2f, .2f, .2f}, {.7f, .7f, .7f}, 50.f), false},
+      {"ward balanced (.1,.3)", Bsdf::make_ward(WardVariant::Balanced, {.2f, .2f, .2f}, {.7f, .7f, .7f}, .1f, .3f),
+       false},
+      {"roughconductor beckmann .2", Bsdf::make_rough_conductor(B, .2f, .2f, eta, k), false},
+      {"roughconductor ggx (.1,.4)", Bsdf::make_rough_conductor(G, .1f, .4f, eta, k), false},
+      {"roughdielectric ggx .3 η1.5", Bsdf::make_rough_dielectric(G, .3f, .3f, 1.5f, 1.f), true},
+      {"plastic ρ=.5", Bsdf::make_smooth_plastic({.5f, .5f, .5f}), false},
+      {"blend diffuse / ggx conductor", Bsdf::make_blend(Bsdf::make_diffuse({.8f, .8f, .8f}),
+                                                         Bsdf::make_rough_conductor(G, .25f, .25f, eta, k), .5f),
+       false},
+  };
+}
+const float kBatchIncidenceDeg[] = {10.f, 60.f, 85.f};
+constexpr int kBatchIncidences = int(sizeof kBatchIncidenceDeg / sizeof kBatchIncidenceDeg[0]);
+constexpr uint32_t kBatchSamples = 200000;
+
+Vec3 batch_wo(float deg, bool below) {
+  float t = deg * kPi / 180.f;
+  return {sinf(t) * cosf(0.4f), sinf(t) * sinf(0.4f), below ? -cosf(t) : cosf(t)};
+}
+
+// χ² of one case's directions against its pdf (whole sphere, as
+// test_bsdf_models.cpp does for wide lobes).
+chi2::Outcome batch_chi2(const BatchCase& c, Vec3 wo, const std::vector<Vec3>& wi, const std::vector<uint8_t>& ok) {
+  chi2::SphereGrid g;
+  g.n_theta = c.both_sides ? 40 : 20;
+  g.n_phi = 40;
+  auto sample = [&](uint64_t i, Vec3& w) {
+    w = wi[i];
+    return ok[i] != 0;
+  };
+  auto pdf = [&](chi2::D3 w) { return double(c.b.pdf(wo, chi2::to_vec3(w))); };
+  return chi2::run_sphere(g, wi.size(), sample, pdf);
+}
+
+// Every (case, incidence) pair, from above and, for transmissive cases, from
+// below: the number of χ² tests of one family.
+int batch_tests() {
+  int n = 0;
+  for (const BatchCase& c : batch_cases()) n += kBatchIncidences * (c.both_sides ? 2 : 1);
+  return n;
+}
+
+// The recorded rays of a few Cornell-box paths (camera, bounces, shadow rays).
+struct RecordingTracer {
+  EmbreeTracer inner;
+  std::vector<Ray>* rays;
+  std::vector<uint8_t>* shadow;
+  bool intersect(const Ray& r, Hit& h) const {
+    rays->push_back(r), shadow->push_back(0);
+    return inner.intersect(r, h);
+  }
+  bool occluded(const Ray& r) const {
+    rays->push_back(r), shadow->push_back(1);
+    return inner.occluded(r);
+  }
+};
+void record_rays(const Scene& s, std::vector<Ray>& rays, std::vector<uint8_t>& shadow, std::vector<uint8_t>& hit) {
+  EmbreeScene embree(s);
+  RecordingTracer rec{embree.tracer(), &rays, &shadow};
+  const SceneView view = s.view();
+  const SamplerDesc desc = make_sampler_desc(s.settings.sampler, s.settings.spp, s.settings.seed);
+  for (int y = 0; y < view.camera.height; ++y)
+    for (int x = 0; x < view.camera.width; ++x) {
+      Sampler sampler;
+      sampler.start(desc, uint32_t(x), uint32_t(y), 0);
+      Vec2 off = sample_filter(s.settings.filter, sampler.next_2d());
+      Ray r = view.camera.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+      uint64_t n = 0;
+      path_li(view, rec, r, sampler, s.settings.integrator, n);
+    }
+  const EmbreeTracer t = embree.tracer();
+  hit.resize(rays.size());
+  for (size_t i = 0; i < rays.size(); ++i) {
+    Hit h;
+    hit[i] = (shadow[i] ? t.occluded(rays[i]) : t.intersect(rays[i], h)) ? 1 : 0;
+  }
+}
+
+// ---------------------------------------------------------------- batches on the host
+
+// The GPU's χ² items on the host: bsdf_sample_item draws exactly the numbers
+// of the χ² harness (so its samples are Bsdf::sample's, bit for bit), and its
+// output passes the same χ² test the device's must.
+TEST(CudaBatchOnHost, BsdfItemsAreSampleAndPassChi2) {
+  const BatchCase c = batch_cases()[5];  // anisotropic GGX
+  const Vec3 wo = batch_wo(60.f, false);
+  std::vector<Vec3> wi(kBatchSamples);
+  std::vector<uint8_t> ok(kBatchSamples);
+  BsdfBatchParams p;
+  p.bsdf = &c.b;
+  p.wo = wo;
+  p.seed = 77;
+  p.n = kBatchSamples;
+  p.wi = wi.data();
+  p.ok = ok.data();
+  for (uint32_t i = 0; i < p.n; ++i) bsdf_sample_item(p, i);
+  for (uint32_t i = 0; i < 1000; ++i) {
+    BsdfSample s = c.b.sample(wo, chi2::rand01(77, i, 0), chi2::rand2(77, i, 1));
+    ASSERT_EQ(ok[i] != 0, s.valid && !s.delta) << i;
+    if (ok[i]) ASSERT_TRUE(wi[i].x == s.wi.x && wi[i].y == s.wi.y && wi[i].z == s.wi.z) << i;
+  }
+  chi2::Outcome o = batch_chi2(c, wo, wi, ok);
+  const double thr = chi2::sidak(chi2::kAlpha, 1);
+  EXPECT_TRUE(o.result.passes(thr)) << o.describe(thr);
+  // And the test can fail: the pdf of another roughness is rejected.
+  BatchCase wrong = c;
+  wrong.b = batch_cases()[4].b;
+  EXPECT_FALSE(batch_chi2(wrong, wo, wi, ok).result.passes(thr)) << "a wrong pdf must be rejected";
+}
+
+// trace_ray_item over Luz's BVH answers recorded path-tracing rays as Embree
+// does (test_bvh.cpp checks the traversal itself on 10^6 rays).
+TEST(CudaBatchOnHost, TraceRayItemsMatchEmbree) {
+  Scene s = cornell_with_sphere(32, 1, 5);
+  std::vector<Ray> rays;
+  std::vector<uint8_t> shadow, expected;
+  record_rays(s, rays, shadow, expected);
+  ASSERT_GT(rays.size(), 2000u);
+  const SceneView view = s.view();
+  const Bvh bvh = build_bvh(view);
+  std::vector<uint8_t> hit(rays.size());
+  RayBatchParams p;
+  p.tracer = make_bvh_tracer(bvh, view);
+  p.rays = rays.data();
+  p.shadow = shadow.data();
+  p.n = uint32_t(rays.size());
+  p.hit = hit.data();
+  for (uint32_t i = 0; i < p.n; ++i) trace_ray_item(p, i);
+  size_t differ = 0;
+  for (size_t i = 0; i < rays.size(); ++i) differ += hit[i] != expected[i];
+  EXPECT_LE(differ, rays.size() / 1000) << "hit/miss answers differing from Embree's";
+}
+
+// The pass logic over Luz's BVH renders every BSDF model's scene as the CPU
+// renderer (Embree) does, within noise: independent seeds, block z-test with
+// the family level shared by all models.
+TEST(CudaPassOnHost, MaterialScenesAgreeWithCpu) {
+  for (const char* m : kMaterialModels) {
+    Scene a = material_scene(m, 128, 61), b = material_scene(m, 128, 62);
+    std::string what = std::string("host passes vs CPU, material ") + m;
+    expect_agree(passes_on_host(a, 16), cpu(b), what.c_str(), kFamilyAlpha / kNumMaterialModels);
+  }
+}
 
 TEST(CudaPassOnHost, SamplesPerPassDefault) {
   EXPECT_EQ(default_samples_per_pass(512 * 512, 1024), 8u);
@@ -292,6 +474,66 @@ TEST(CudaDevice, SpheresAndFlatShadingMatchCpu) {
   Film g = gpu(s, 0, &gs), c = cpu(s);
   EXPECT_EQ(gs.discarded, 0u);
   expect_same_samples(g, c, 1e-2, "GPU vs CPU, sphere + flat shading, 1 spp, same seed");
+}
+
+// Every BSDF model's scene on the GPU against the CPU renderer, within noise.
+TEST(CudaDevice, MaterialScenesAgreeWithCpu) {
+  REQUIRE_GPU();
+  for (const char* m : kMaterialModels) {
+    Scene a = material_scene(m, 256, 71), b = material_scene(m, 256, 72);
+    RenderStats gs;
+    Film g = gpu(a, 0, &gs);
+    EXPECT_EQ(gs.discarded, 0u) << m;
+    std::string what = std::string("GPU vs CPU, material ") + m;
+    expect_agree(g, cpu(b), what.c_str(), kFamilyAlpha / kNumMaterialModels);
+  }
+}
+
+// BSDF sampling on the GPU: χ² of the device's directions against pdf() for
+// every case and incidence (Šidák over the family), and the device draws the
+// host's samples: the same random numbers, so all but the rare direction whose
+// rounding differs are equal to 1e-4.
+TEST(CudaDevice, BsdfSamplingChi2) {
+  REQUIRE_GPU();
+  const double thr = chi2::sidak(chi2::kAlpha, batch_tests());
+  double min_p = 1.0;
+  uint64_t seed = 9000;
+  for (const BatchCase& c : batch_cases())
+    for (int side = 0; side < (c.both_sides ? 2 : 1); ++side)
+      for (float deg : kBatchIncidenceDeg) {
+        const Vec3 wo = batch_wo(deg, side == 1);
+        ++seed;
+        std::vector<Vec3> wi;
+        std::vector<uint8_t> ok;
+        sample_bsdf_cuda(c.b, wo, seed, kBatchSamples, wi, ok);
+        ASSERT_EQ(wi.size(), size_t(kBatchSamples));
+        chi2::Outcome o = batch_chi2(c, wo, wi, ok);
+        EXPECT_TRUE(o.result.passes(thr)) << c.name << " at " << deg << "° side " << side << ": " << o.describe(thr);
+        min_p = std::min(min_p, o.result.p_value);
+        size_t differ = 0;
+        for (uint32_t i = 0; i < kBatchSamples; ++i) {
+          BsdfSample s = c.b.sample(wo, chi2::rand01(seed, i, 0), chi2::rand2(seed, i, 1));
+          bool host_ok = s.valid && !s.delta;
+          if (host_ok != (ok[i] != 0) || (host_ok && length(s.wi - wi[i]) > 1e-4f)) ++differ;
+        }
+        EXPECT_LE(differ, kBatchSamples / 1000) << c.name << " at " << deg << "°: samples differing from the host's";
+      }
+  std::printf("[gpu] BSDF sampling chi2 over %d cases: smallest p %.3g, reject below %.3g\n", batch_tests(), min_p,
+              thr);
+}
+
+// Luz's BVH on the GPU answers recorded rays as Embree does on the host.
+TEST(CudaDevice, TraceRaysMatchEmbree) {
+  REQUIRE_GPU();
+  Scene s = cornell_with_sphere(64, 1, 6);
+  std::vector<Ray> rays;
+  std::vector<uint8_t> shadow, expected;
+  record_rays(s, rays, shadow, expected);
+  uint64_t hits = 0;
+  double seconds = trace_rays_cuda(s, rays, shadow, 2, &hits);
+  EXPECT_GT(seconds, 0.0);
+  uint64_t expected_hits = uint64_t(std::count(expected.begin(), expected.end(), uint8_t(1)));
+  EXPECT_NEAR(double(hits), double(expected_hits), double(rays.size()) / 1000) << "hits among " << rays.size();
 }
 
 // ---------------------------------------------------------------- without a GPU

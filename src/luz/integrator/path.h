@@ -122,9 +122,14 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
 
     // Next-event estimation (not at delta-only vertices: f is 0 there).
     if (use_nee && scene.num_emitters > 0 && !bsdf.delta_only()) {
-      float u_light = sampler.next_1d();
+      // With one emitter its selection number is not needed (nor drawn:
+      // dimensions are indexed, so skipping one changes no other number).
+      uint32_t e = 0;
+      if (scene.num_emitters > 1)
+        e = scene.select_emitter(sampler.next_1d());
+      else
+        sampler.dim += 1;
       Vec2 u_light2 = sampler.next_2d();
-      uint32_t e = scene.select_emitter(u_light);
       LightSample ls = scene.sample_emitter(e, it.p, u_light2);
       if (ls.pdf > 0.f) {
         Vec3 wi = frame.to_local(ls.wi);
@@ -157,7 +162,11 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
 
     // BSDF sampling (its dimensions are fixed whether or not NEE ran).
     sampler.dim = base_dim + 2;
-    float u_bsdf = sampler.next_1d();
+    float u_bsdf = 0.f;  // lobe choice: a plain Lambert BSDF has none, so skip its dimension
+    if (bsdf.plain_diffuse())
+      sampler.dim += 1;
+    else
+      u_bsdf = sampler.next_1d();
     Vec2 u_bsdf2 = sampler.next_2d();
     BsdfSample bs = bsdf.sample(wo, u_bsdf, u_bsdf2);
     if (!bs.valid) break;

@@ -17,6 +17,7 @@ struct Emitter {
   // so that light sampling does not recompute them at every vertex.
   Vec3 normal;
   float area = 0.f;
+  Vec3 v0, v1, v2;  // the triangle's vertices, copied: no index look-ups when sampling
 };
 
 // A sampled point on an emitter as seen from a reference point.

@@ -92,6 +92,9 @@ void Scene::compile() {
         float len = length(c);
         emitters[e].area = 0.5f * len;
         emitters[e].normal = len > 0.f ? c / len : Vec3{0, 0, 1};
+        emitters[e].v0 = p0;
+        emitters[e].v1 = p1;
+        emitters[e].v2 = p2;
         area = emitters[e].area;
         break;
       }

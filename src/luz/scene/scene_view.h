@@ -103,10 +103,8 @@ struct SceneView {
     const Emitter& em = emitters[e];
     switch (em.type) {
       case EmitterType::Triangle: {
-        Vec3 p0, p1, p2;
-        triangle(em.prim, p0, p1, p2);
         Vec2 b = square_to_triangle_barycentrics(u);
-        ls.p = p0 * (1.f - b.x - b.y) + p1 * b.x + p2 * b.y;
+        ls.p = em.v0 * (1.f - b.x - b.y) + em.v1 * b.x + em.v2 * b.y;
         ls.n = em.normal;
         Vec3 d = ls.p - ref;
         float d2 = length_squared(d);

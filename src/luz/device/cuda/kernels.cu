@@ -24,6 +24,30 @@ cudaError_t launch_render_pass(const PassParams& params, unsigned long long* ray
   return cudaGetLastError();
 }
 
+__global__ void bsdf_samples_kernel(BsdfBatchParams p) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < p.n) bsdf_sample_item(p, i);
+}
+
+__global__ void trace_rays_kernel(RayBatchParams p) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < p.n) trace_ray_item(p, i);
+}
+
+constexpr unsigned kBatchBlock = 128;
+
+cudaError_t launch_bsdf_samples(const BsdfBatchParams& params, cudaStream_t stream) {
+  if (params.n == 0) return cudaSuccess;
+  bsdf_samples_kernel<<<(params.n + kBatchBlock - 1) / kBatchBlock, kBatchBlock, 0, stream>>>(params);
+  return cudaGetLastError();
+}
+
+cudaError_t launch_trace_rays(const RayBatchParams& params, cudaStream_t stream) {
+  if (params.n == 0) return cudaSuccess;
+  trace_rays_kernel<<<(params.n + kBatchBlock - 1) / kBatchBlock, kBatchBlock, 0, stream>>>(params);
+  return cudaGetLastError();
+}
+
 cudaError_t render_pass_attributes(cudaFuncAttributes* attributes) {
   return cudaFuncGetAttributes(attributes, render_pass_kernel);
 }

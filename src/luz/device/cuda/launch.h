@@ -5,6 +5,7 @@
 
 #include <cuda_runtime_api.h>
 
+#include "luz/device/cuda/batch.h"
 #include "luz/device/cuda/pass.h"
 
 namespace luz::cuda {
@@ -18,5 +19,9 @@ cudaError_t launch_render_pass(const PassParams& params, unsigned long long* ray
 // (or cudaErrorInvalidDeviceFunction) when this build has no code for the
 // current device's architecture.
 cudaError_t render_pass_attributes(cudaFuncAttributes* attributes);
+
+// The batch queries of batch.h, one item per thread, enqueued on `stream`.
+cudaError_t launch_bsdf_samples(const BsdfBatchParams& params, cudaStream_t stream);
+cudaError_t launch_trace_rays(const RayBatchParams& params, cudaStream_t stream);
 
 }  // namespace luz::cuda

@@ -206,7 +206,9 @@ class Stream {
 
 class Event {
  public:
-  Event() { check(cudaEventCreateWithFlags(&e_, cudaEventDisableTiming), "cudaEventCreate"); }
+  explicit Event(unsigned flags = cudaEventDisableTiming) {
+    check(cudaEventCreateWithFlags(&e_, flags), "cudaEventCreate");
+  }
   ~Event() { cudaEventDestroy(e_); }
   Event(const Event&) = delete;
   Event& operator=(const Event&) = delete;
@@ -235,6 +237,20 @@ class Uploader {
  private:
   std::vector<DeviceBuffer> buffers_;
 };
+
+// Luz's BVH on the GPU, over geometry already uploaded.
+BvhTracer upload_tracer(Uploader& up, const Bvh& bvh, const Vec3* positions, const uint32_t* indices,
+                        const Sphere* spheres) {
+  BvhTracer tracer;
+  tracer.bvh.nodes = up.upload(bvh.nodes, "BVH nodes");
+  tracer.bvh.num_nodes = uint32_t(bvh.nodes.size());
+  tracer.bvh.prims = up.upload(bvh.prims, "BVH primitive references");
+  tracer.bvh.num_prims = uint32_t(bvh.prims.size());
+  tracer.geometry.positions = positions;
+  tracer.geometry.indices = indices;
+  tracer.geometry.spheres = spheres;
+  return tracer;
+}
 
 // One output slot: the pass's float sums, squares and counts, on both sides.
 struct Slot {
@@ -297,14 +313,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.emitters = up.upload(scene.emitters, "emitters");
   dev.emitter_cdf = up.upload(scene.emitter_cdf, "the emitter CDF");
   dev.emitter_pmf = up.upload(scene.emitter_pmf, "the emitter PMF");
-  BvhTracer tracer;
-  tracer.bvh.nodes = up.upload(bvh.nodes, "BVH nodes");
-  tracer.bvh.num_nodes = uint32_t(bvh.nodes.size());
-  tracer.bvh.prims = up.upload(bvh.prims, "BVH primitive references");
-  tracer.bvh.num_prims = uint32_t(bvh.prims.size());
-  tracer.geometry.positions = dev.positions;
-  tracer.geometry.indices = dev.indices;
-  tracer.geometry.spheres = dev.spheres;
+  const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres);
 
   const size_t slot_bytes = pixels * (6 * sizeof(float) + sizeof(uint32_t));
   Slot slots[2];
@@ -392,6 +401,62 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   stats.rays = total_rays;
   stats.discarded = discarded.load();
   return film;
+}
+
+void sample_bsdf_cuda(const Bsdf& bsdf, Vec3 wo, uint64_t seed, uint32_t n, std::vector<Vec3>& wi,
+                      std::vector<uint8_t>& ok) {
+  std::string why;
+  if (!probe(0, why, nullptr)) throw CudaError(CudaError::Kind::Unavailable, why);
+  Uploader up;
+  BsdfBatchParams p;
+  p.bsdf = up.upload(&bsdf, 1, "the BSDF");
+  p.wo = wo;
+  p.seed = seed;
+  p.n = n;
+  DeviceBuffer wi_buf(size_t(n) * sizeof(Vec3), "sampled directions"), ok_buf(n, "sample flags");
+  p.wi = static_cast<Vec3*>(wi_buf.get());
+  p.ok = static_cast<uint8_t*>(ok_buf.get());
+  check(cuda::launch_bsdf_samples(p, nullptr), "launching the BSDF sampling kernel");
+  check(cudaDeviceSynchronize(), "sampling the BSDF on the GPU");
+  wi.resize(n);
+  ok.resize(n);
+  check(cudaMemcpy(wi.data(), p.wi, size_t(n) * sizeof(Vec3), cudaMemcpyDeviceToHost), "cudaMemcpy of directions");
+  check(cudaMemcpy(ok.data(), p.ok, n, cudaMemcpyDeviceToHost), "cudaMemcpy of sample flags");
+}
+
+double trace_rays_cuda(const Scene& scene, const std::vector<Ray>& rays, const std::vector<uint8_t>& shadow,
+                       int repeat, uint64_t* hits) {
+  std::string why;
+  if (!probe(0, why, nullptr)) throw CudaError(CudaError::Kind::Unavailable, why);
+  if (shadow.size() != rays.size()) throw CudaError(CudaError::Kind::Failure, "trace_rays_cuda: shadow flags != rays");
+  const Bvh bvh = build_bvh(scene.view());
+  Uploader up;
+  RayBatchParams p;
+  p.tracer = upload_tracer(up, bvh, up.upload(scene.positions, "vertex positions"),
+                           up.upload(scene.indices, "triangle indices"), up.upload(scene.spheres, "spheres"));
+  p.rays = up.upload(rays, "rays");
+  p.shadow = up.upload(shadow, "ray kinds");
+  p.n = uint32_t(rays.size());
+  DeviceBuffer hit_buf(rays.size(), "ray results");
+  p.hit = static_cast<uint8_t*>(hit_buf.get());
+  check(cudaDeviceSynchronize(), "uploading rays to the GPU");
+  Event start(cudaEventDefault), stop(cudaEventDefault);
+  double best = 1e30;
+  for (int k = 0; k < std::max(repeat, 1); ++k) {
+    check(cudaEventRecord(start.get(), nullptr), "cudaEventRecord");
+    check(cuda::launch_trace_rays(p, nullptr), "launching the ray tracing kernel");
+    check(cudaEventRecord(stop.get(), nullptr), "cudaEventRecord");
+    check(cudaEventSynchronize(stop.get()), "tracing rays on the GPU");
+    float ms = 0.f;
+    check(cudaEventElapsedTime(&ms, start.get(), stop.get()), "cudaEventElapsedTime");
+    best = std::min(best, double(ms) * 1e-3);
+  }
+  if (hits) {
+    std::vector<uint8_t> h(rays.size());
+    check(cudaMemcpy(h.data(), p.hit, h.size(), cudaMemcpyDeviceToHost), "cudaMemcpy of ray results");
+    *hits = uint64_t(std::count(h.begin(), h.end(), uint8_t(1)));
+  }
+  return best;
 }
 
 }  // namespace luz

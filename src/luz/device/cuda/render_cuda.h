@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "luz/device/cpu/render.h"  // RenderStats
 #include "luz/film/film.h"
@@ -57,5 +58,18 @@ std::string cuda_device_name();
 // rays (camera + bounce + shadow), non-finite samples discarded.
 // Throws CudaError.
 Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderStats& stats);
+
+// bsdf.sample() for items 0..n-1 on the GPU (device/cuda/batch.h,
+// bsdf_sample_item: random numbers a function of (seed, i)). Fills wi and ok
+// (valid and not delta) with n entries each. Throws CudaError.
+void sample_bsdf_cuda(const Bsdf& bsdf, Vec3 wo, uint64_t seed, uint32_t n, std::vector<Vec3>& wi,
+                      std::vector<uint8_t>& ok);
+
+// Traces `rays` on the GPU through Luz's BVH of `scene` (shadow[i] != 0: an
+// occlusion query, else closest hit), `repeat` times. Returns the best time
+// of one launch over all rays (seconds, by CUDA events: upload and build
+// excluded) and, in *hits, how many rays hit / were occluded. Throws CudaError.
+double trace_rays_cuda(const Scene& scene, const std::vector<Ray>& rays, const std::vector<uint8_t>& shadow,
+                       int repeat, uint64_t* hits);
 
 }  // namespace luz

@@ -25,4 +25,12 @@ Film render_cuda(const Scene&, const CudaRenderOptions&, RenderStats&) {
   throw CudaError(CudaError::Kind::Unavailable, kWhy);
 }
 
+void sample_bsdf_cuda(const Bsdf&, Vec3, uint64_t, uint32_t, std::vector<Vec3>&, std::vector<uint8_t>&) {
+  throw CudaError(CudaError::Kind::Unavailable, kWhy);
+}
+
+double trace_rays_cuda(const Scene&, const std::vector<Ray>&, const std::vector<uint8_t>&, int, uint64_t*) {
+  throw CudaError(CudaError::Kind::Unavailable, kWhy);
+}
+
 }  // namespace luz
