@@ -1,10 +1,12 @@
-// The BSDF library (conductor.h, dielectric.h, plastic.h, blinnphong.h,
-// ward.h, blends in bsdf.h): chi-square of sample() against pdf() for every
-// model with a non-delta lobe, at several incidences including grazing and
-// roughness 0.05, over the whole sphere for transmissive models (delta
-// samples and failures go to the failure bin); sample weights against
-// f·|cos|/pdf; reciprocity (the generalised η² form for rough dielectrics);
-// directional albedo ≤ 1 by Monte Carlo with an error bar; delta lobes.
+// The BSDF library (conductor.h, dielectric.h, plastic.h, roughplastic.h,
+// blinnphong.h, ward.h, blends and two-sided pairs in bsdf.h): chi-square of
+// sample() against pdf() for every model with a non-delta lobe, at several
+// incidences including grazing and roughness ≤ 0.05, over the whole sphere
+// for transmissive models and for twosided pairs with a different back BSDF
+// (wo on both sides; delta samples and failures go to the failure bin);
+// sample weights against f·|cos|/pdf; reciprocity (the generalised η² form
+// for rough dielectrics); directional albedo ≤ 1 by Monte Carlo with an error
+// bar; delta lobes; the twosided pair answers each side with its own BSDF.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -42,8 +44,9 @@ struct Case {
   float width;  // angular scale of the narrowest lobe (radians of wi), for the grid
 };
 
-// Every model with a non-delta lobe, with textbook parameters.
-std::vector<Case> models() {
+// Every model with a non-delta lobe, with textbook parameters. Built once
+// (rough plastic tabulates its coat's albedos when made).
+std::vector<Case> build_models() {
   std::vector<Case> v;
   const MicrofacetType B = MicrofacetType::Beckmann, G = MicrofacetType::GGX;
   v.push_back({"roughconductor Au beckmann .05", Bsdf::make_rough_conductor(B, .05f, .05f, au_eta(), au_k()), .1f});
@@ -60,6 +63,22 @@ std::vector<Case> models() {
   v.push_back({"blinnphong ks 1 n 800", Bsdf::make_blinn_phong({0.f, 0.f, 0.f}, kWhite, 800.f), .1f});
   v.push_back({"ward balanced (.1,.3)", Bsdf::make_ward(WardVariant::Balanced, {.2f, .2f, .2f}, {.8f, .8f, .8f}, .1f, .3f), 1.f});
   v.push_back({"ward original .05", Bsdf::make_ward(WardVariant::Ward, {.1f, .1f, .1f}, {.5f, .5f, .5f}, .05f, .05f), .1f});
+  v.push_back({"ward-duer (.2,.1)", Bsdf::make_ward(WardVariant::WardDuer, {.3f, .3f, .3f}, {.6f, .6f, .6f}, .2f, .1f), 1.f});
+  v.push_back({"ward-duer .04", Bsdf::make_ward(WardVariant::WardDuer, {0.f, 0.f, 0.f}, {.7f, .7f, .7f}, .04f, .04f), .08f});
+  v.push_back({"roughplastic beckmann .02 ρ=.2", Bsdf::make_rough_plastic(B, .02f, {.2f, .2f, .2f}), .04f});
+  v.push_back({"roughplastic ggx .05 ρ=(.8,.3,.1) η1.5",
+               Bsdf::make_rough_plastic(G, .05f, {.8f, .3f, .1f}, kWhite, 1.5f, 1.f), 1.f});
+  v.push_back({"roughplastic ggx .3 ρ=.5", Bsdf::make_rough_plastic(G, .3f, {.5f, .5f, .5f}), 1.f});
+  v.push_back({"roughplastic beckmann .6 ρ=.5 ks .5 η2.4 nonlinear",
+               Bsdf::make_rough_plastic(B, .6f, {.5f, .5f, .5f}, {.5f, .5f, .5f}, 2.4f, 1.f, true), 1.f});
+  v.push_back({"twosided ggx .2 conductor / diffuse .7",
+               Bsdf::make_two_sided(Bsdf::make_rough_conductor(G, .2f, .2f, au_eta(), au_k()),
+                                    Bsdf::make_diffuse({.7f, .7f, .7f})), 1.f});
+  v.push_back({"twosided blend(diffuse, roughplastic .1) / ward balanced",
+               Bsdf::make_two_sided(Bsdf::make_blend(Bsdf::make_diffuse({.5f, .2f, .2f}),
+                                                     Bsdf::make_rough_plastic(G, .1f, {.2f, .2f, .6f}), .5f),
+                                    Bsdf::make_ward(WardVariant::Balanced, {.2f, .2f, .2f}, {.6f, .6f, .6f}, .15f, .3f)),
+               1.f});
   v.push_back({"blend diffuse .8 / ggx .2 conductor, w .4",
                Bsdf::make_blend(Bsdf::make_diffuse({.8f, .8f, .8f}),
                                 Bsdf::make_rough_conductor(G, .2f, .2f, au_eta(), au_k()), .4f), 1.f});
@@ -68,10 +87,18 @@ std::vector<Case> models() {
                                 Bsdf::make_smooth_conductor(au_eta(), au_k()), .5f), 1.f});
   return v;
 }
+const std::vector<Case>& models() {
+  static const std::vector<Case> v = build_models();
+  return v;
+}
+
+// Models that answer queries from both sides: transmissive ones and
+// twosided pairs with their own back BSDF.
+bool both_sides(const Bsdf& b) { return b.has_transmission() || b.has_back; }
 
 std::vector<float> incidences(const Bsdf& b) {
   std::vector<float> v(std::begin(kIncidenceDeg), std::end(kIncidenceDeg));
-  if (b.has_transmission())
+  if (both_sides(b))
     for (float d : kInsideDeg) v.push_back(-d);  // negative: wo below the surface
   return v;
 }
@@ -101,7 +128,7 @@ TEST(BsdfModels, SamplingMatchesPdfChi2) {
     for (float deg : incidences(c.b)) {
       Vec3 wo = wo_for(deg);
       chi2::SphereGrid g;
-      if (!c.b.has_transmission() && c.width < 0.5f) {
+      if (!both_sides(c.b) && c.width < 0.5f) {
         g.axis = {-wo.x, -wo.y, wo.z};
         g.theta_max = 6.0 * c.width;
         g.n_theta = 12;
@@ -109,7 +136,7 @@ TEST(BsdfModels, SamplingMatchesPdfChi2) {
       } else {
         g.axis = {0.0, 0.0, 1.0};
         g.theta_max = chi2::kPi;
-        g.n_theta = c.b.has_transmission() ? 40 : 20;
+        g.n_theta = both_sides(c.b) ? 40 : 20;
         g.n_phi = 40;
       }
       ++seed;
@@ -141,7 +168,7 @@ TEST(BsdfModels, SampleWeightMatchesEval) {
       int checked = 0;
       for (uint64_t i = 0; i < 20000; ++i) {
         Vec3 wo = square_to_uniform_sphere(chi2::rand2(21, i, 0));
-        if (!c.b.has_transmission() && wo.z < 0.f) wo.z = -wo.z;
+        if (!both_sides(c.b) && wo.z < 0.f) wo.z = -wo.z;
         BsdfSample s = c.b.sample(wo, chi2::rand01(21, i, 2), chi2::rand2(21, i, 3), mode);
         if (!s.valid) continue;
         ASSERT_NEAR(length(s.wi), 1.f, 1e-4f) << c.name;
@@ -176,7 +203,8 @@ TEST(BsdfModels, Reciprocity) {
     int nonzero = 0;
     for (uint64_t i = 0; i < 20000; ++i) {
       Vec3 a = square_to_uniform_sphere(chi2::rand2(31, i, 0)), d = square_to_uniform_sphere(chi2::rand2(31, i, 1));
-      if (!c.b.has_transmission()) a.z = std::fabs(a.z), d.z = std::fabs(d.z);
+      if (c.b.has_back) d.z = std::copysign(d.z, a.z);  // each side on its own
+      else if (!c.b.has_transmission()) a.z = std::fabs(a.z), d.z = std::fabs(d.z);
       Color f1 = c.b.f(a, d), f2 = c.b.f(d, a);
       Color fp = c.b.f(normalize(a + Vec3{0x1p-21f, 0x1p-21f, 0.f}), d),
             fq = c.b.f(a, normalize(d + Vec3{0x1p-21f, -0x1p-21f, 0.f}));
@@ -201,8 +229,9 @@ TEST(BsdfModels, Reciprocity) {
 // wo, all that leaves, delta lobes included) ≤ 1 for white parameters, by
 // Monte Carlo with the BSDF's own sampling: rejected if above 1 by more than
 // z·σ/√N, z the one-sided Šidák quantile over all cases. Normalised
-// Blinn-Phong and the original Ward are not energy conserving by
+// Blinn-Phong, the original Ward and Ward-Dür are not energy conserving by
 // construction: their worst albedo is measured and printed, not asserted.
+// Rough plastic with ρ = k_s = 1: albedo ≤ R(μo) + T(μo) ≤ 1 (roughplastic.h).
 TEST(BsdfModels, EnergyConservation) {
   const MicrofacetType B = MicrofacetType::Beckmann, G = MicrofacetType::GGX;
   Color mirror_eta, mirror_k;
@@ -235,11 +264,28 @@ TEST(BsdfModels, EnergyConservation) {
       {"blinnphong ks 1 n 100", Bsdf::make_blinn_phong({0.f, 0.f, 0.f}, kWhite, 100.f), false},
       {"ward original .1 ks 1", Bsdf::make_ward(WardVariant::Ward, {0.f, 0.f, 0.f}, kWhite, .1f, .1f), false},
       {"ward original .5 ks 1", Bsdf::make_ward(WardVariant::Ward, {0.f, 0.f, 0.f}, kWhite, .5f, .5f), false},
+      {"ward-duer .1 ks 1", Bsdf::make_ward(WardVariant::WardDuer, {0.f, 0.f, 0.f}, kWhite, .1f, .1f), false},
+      {"ward-duer .5 ks 1", Bsdf::make_ward(WardVariant::WardDuer, {0.f, 0.f, 0.f}, kWhite, .5f, .5f), false},
+      {"roughplastic ρ=1 beckmann .01 η1.49", Bsdf::make_rough_plastic(B, .01f, kWhite), true},
+      {"roughplastic ρ=1 ggx .05 η1.49", Bsdf::make_rough_plastic(G, .05f, kWhite), true},
+      {"roughplastic ρ=1 ggx .3 η1.49", Bsdf::make_rough_plastic(G, .3f, kWhite), true},
+      {"roughplastic ρ=1 beckmann .6 η1.49", Bsdf::make_rough_plastic(B, .6f, kWhite), true},
+      {"roughplastic ρ=1 ggx .01 η2.4", Bsdf::make_rough_plastic(G, .01f, kWhite, kWhite, 2.4f, 1.f), true},
+      {"roughplastic ρ=1 ggx .6 η2.4", Bsdf::make_rough_plastic(G, .6f, kWhite, kWhite, 2.4f, 1.f), true},
+      {"roughplastic ρ=1 ggx .3 η1.1", Bsdf::make_rough_plastic(G, .3f, kWhite, kWhite, 1.1f, 1.f), true},
+      {"roughplastic ρ=1 ggx .3 1/1.33 (η<1)", Bsdf::make_rough_plastic(G, .3f, kWhite, kWhite, 1.f, 1.33f), true},
+      {"roughplastic ρ=.9 nonlinear ggx .1", Bsdf::make_rough_plastic(G, .1f, {.9f, .9f, .9f}, kWhite, 1.49f,
+                                                                      1.000277f, true), true},
+      {"plastic ρ=.9 nonlinear η1.49", Bsdf::make_smooth_plastic({.9f, .9f, .9f}, kWhite, 1.49f, 1.000277f,
+                                                                 false, true), true},
+      {"twosided roughconductor F=1 / roughplastic ρ=1",
+       Bsdf::make_two_sided(Bsdf::make_rough_conductor(G, .2f, .2f, mirror_eta, mirror_k),
+                            Bsdf::make_rough_plastic(G, .2f, kWhite)), true},
   };
   const float degs[] = {0.f, 30.f, 60.f, 80.f, 89.f, -30.f, -60.f, -89.f};
   int tests = 0;
   for (const E& e : cases)
-    for (float deg : degs) tests += (deg >= 0.f || e.b.has_transmission());
+    for (float deg : degs) tests += (deg >= 0.f || both_sides(e.b));
   const double z = chi2::normal_two_sided_quantile(2.0 * chi2::sidak(chi2::kAlpha, tests));  // one-sided
   const uint64_t N = 100000;
   uint64_t seed = 9000;
@@ -247,7 +293,7 @@ TEST(BsdfModels, EnergyConservation) {
     std::printf("%-40s", e.name.c_str());
     double worst = 0.0, worst_err = 0.0;
     for (float deg : degs) {
-      if (deg < 0.f && !e.b.has_transmission()) continue;
+      if (deg < 0.f && !both_sides(e.b)) continue;
       Vec3 wo = wo_for(deg);
       double sum = 0.0, sum2 = 0.0;
       ++seed;
@@ -337,4 +383,71 @@ TEST(BsdfModels, DeltaLobes) {
     ASSERT_FLOAT_EQ(t.wi.x, -wo.x);
     ASSERT_FLOAT_EQ(t.wi.z, -wo.z);
   }
+}
+
+// Mitsuba's twosided with two BSDFs: a query with wo above the surface is the
+// front BSDF's (a blend here), one with wo below is the back BSDF's in the
+// mirrored frame, bit for bit (f, pdf, and sample() with the same numbers);
+// nothing crosses from one side to the other.
+TEST(BsdfModels, TwoSidedAnswersEachSideWithItsOwnBsdf) {
+  const MicrofacetType G = MicrofacetType::GGX;
+  Bsdf front = Bsdf::make_blend(Bsdf::make_diffuse({.5f, .2f, .2f}), Bsdf::make_rough_plastic(G, .1f, {.2f, .2f, .6f}), .5f);
+  Bsdf back = Bsdf::make_rough_conductor(G, .3f, .3f, au_eta(), au_k());
+  Bsdf pair = Bsdf::make_two_sided(front, back);
+  Bsdf front2 = front, back2 = back;
+  front2.two_sided = back2.two_sided = true;
+  int front_checked = 0, back_checked = 0;
+  for (uint64_t i = 0; i < 20000; ++i) {
+    Vec3 wo = square_to_uniform_sphere(chi2::rand2(51, i, 0)), wi = square_to_uniform_sphere(chi2::rand2(51, i, 1));
+    if (wo.z == 0.f) continue;
+    float u1 = chi2::rand01(51, i, 4);
+    Vec2 u2 = chi2::rand2(51, i, 3);
+    const Bsdf& expect = wo.z > 0.f ? front2 : back2;
+    Color f = pair.f(wo, wi), fe = expect.f(wo, wi);
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(f[k], fe[k]) << i;
+    ASSERT_EQ(pair.pdf(wo, wi), expect.pdf(wo, wi)) << i;
+    if (wo.z * wi.z < 0.f) ASSERT_TRUE(is_black(f) && pair.pdf(wo, wi) == 0.f) << "across the surface, " << i;
+    BsdfSample s = pair.sample(wo, u1, u2), se = expect.sample(wo, u1, u2);
+    ASSERT_EQ(s.valid, se.valid) << i;
+    if (!s.valid) continue;
+    ASSERT_TRUE(s.wi.x == se.wi.x && s.wi.y == se.wi.y && s.wi.z == se.wi.z) << i;
+    ASSERT_EQ(s.pdf, se.pdf) << i;
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(s.weight[k], se.weight[k]) << i;
+    ASSERT_GT(s.wi.z * wo.z, 0.f) << "a sample stays on wo's side, " << i;
+    ++(wo.z > 0.f ? front_checked : back_checked);
+  }
+  EXPECT_GT(front_checked, 5000);
+  EXPECT_GT(back_checked, 5000);
+  // The back is really the conductor (mirrored), not the front: at a mirror
+  // configuration below the surface the two differ.
+  Vec3 wo = mirror_z(direction(30.f, 0.2f)), wr = {-wo.x, -wo.y, wo.z};
+  EXPECT_FALSE(pair.f(wo, wr).x == front2.f(wo, wr).x);
+  EXPECT_EQ(pair.f(wo, wr).x, back.f(mirror_z(wo), mirror_z(wr)).x);
+}
+
+// Rough plastic's tables in the smooth limit (α = 1e-3): the coat's
+// transmittance T(μ) at the table's own nodes is 1 - F(μ) and R_int is the
+// smooth coat's F_dr seen from inside, up to O(α²) (the facets' normals
+// spread by ~α; first-order changes of F cancel) and the table's 16-bit
+// rounding; bound 1e-3. Grazing nodes (μ < 0.2), where masking acts even
+// for tiny α, are left out. Also prints R_int before and after its cap.
+TEST(BsdfModels, RoughPlasticTablesInTheSmoothLimit) {
+  for (float eta : {1.49f, 2.4f, 1.1f}) {
+    Bsdf b = Bsdf::make_rough_plastic(MicrofacetType::Beckmann, 1e-3f, kWhite, kWhite, eta, 1.f);
+    const RoughPlasticBsdf& p = b.rough_plastic;
+    for (int i = 0; i < RoughPlasticBsdf::kTableSize; ++i) {
+      float mu = float(i) / (RoughPlasticBsdf::kTableSize - 1);
+      if (mu < 0.2f) continue;
+      EXPECT_NEAR(p.external_transmittance(mu), 1.f - fresnel_dielectric(mu, eta).F, 1e-3f) << eta << " μ " << mu;
+    }
+    EXPECT_NEAR(p.internal_reflectance, fresnel_diffuse_reflectance(1.f / eta), 1e-3f) << eta;
+  }
+  for (MicrofacetType t : {MicrofacetType::Beckmann, MicrofacetType::GGX})
+    for (float a : {.01f, .3f})
+      for (float eta : {1.49f, 2.4f}) {
+        Bsdf b = Bsdf::make_rough_plastic(t, a, kWhite, kWhite, eta, 1.f);
+        std::printf("roughplastic %s α %.2f η %.2f: R_int quadrature %.5f, used %.5f\n",
+                    t == MicrofacetType::GGX ? "ggx" : "beckmann", a, eta,
+                    rough_coat_internal_reflectance(t, a, b.rough_plastic.eta), b.rough_plastic.internal_reflectance);
+      }
 }

@@ -106,7 +106,16 @@ class CliBsdfs : public luz_test::LuzCliTest {
 }  // namespace
 
 TEST_F(CliBsdfs, BadParameters) {
-  expect_bad("<bsdf type=\"roughplastic\"/>", "roughplastic", "'roughplastic' is not supported yet");
+  expect_bad("<bsdf type=\"roughplastic\">\n      <float name=\"alpha\" value=\"-0.05\"/>\n    </bsdf>",
+             "<bsdf type=\"roughplastic\"", "must be positive");
+  expect_bad("<bsdf type=\"roughplastic\">\n      <float name=\"int_ior\" value=\"0\"/>\n    </bsdf>",
+             "<bsdf type=\"roughplastic\"", "'int_ior' must be positive");
+  expect_bad("<bsdf type=\"roughplastic\">\n      <float name=\"alpha_u\" value=\"0.1\"/>\n"
+             "      <float name=\"alpha_v\" value=\"0.3\"/>\n    </bsdf>",
+             "<bsdf type=\"roughplastic\"", "isotropic roughness only");
+  expect_bad("<bsdf type=\"twosided\">\n      <bsdf type=\"diffuse\"/>\n"
+             "      <bsdf type=\"blendbsdf\"><bsdf type=\"diffuse\"/><bsdf type=\"conductor\"/></bsdf>\n    </bsdf>",
+             "<bsdf type=\"blendbsdf\"", "as the back side of a twosided is not supported");
   expect_bad("<bsdf type=\"roughconductor\">\n      <float name=\"alpha\" value=\"-0.2\"/>\n    </bsdf>",
              "<bsdf type=\"roughconductor\"", "must be positive");
   expect_bad("<bsdf type=\"dielectric\">\n      <float name=\"int_ior\" value=\"0\"/>\n    </bsdf>",
@@ -135,6 +144,13 @@ TEST_F(CliBsdfs, EveryPluginRenders) {
       "<bsdf type=\"roughdielectric\"><float name=\"alpha\" value=\"0.2\"/></bsdf>",
       "<bsdf type=\"thindielectric\"/>",
       "<bsdf type=\"plastic\"/>",
+      "<bsdf type=\"plastic\"><boolean name=\"nonlinear\" value=\"true\"/></bsdf>",
+      "<bsdf type=\"roughplastic\"/>",
+      "<bsdf type=\"roughplastic\"><string name=\"distribution\" value=\"ggx\"/><float name=\"alpha\" value=\"0.3\"/>"
+      "<boolean name=\"nonlinear\" value=\"true\"/></bsdf>",
+      "<bsdf type=\"ward\"><string name=\"variant\" value=\"ward-duer\"/></bsdf>",
+      "<bsdf type=\"twosided\"><bsdf type=\"roughplastic\"/><bsdf type=\"conductor\"><string name=\"material\" "
+      "value=\"Cu\"/></bsdf></bsdf>",
       "<bsdf type=\"ward\"/>",
       "<bsdf type=\"blinnphong\"/>",
       "<bsdf type=\"blendbsdf\"><bsdf type=\"diffuse\"/><bsdf type=\"dielectric\"/></bsdf>",

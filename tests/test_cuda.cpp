@@ -196,7 +196,7 @@ void expect_same_samples(const Film& a, const Film& b, double max_diverged, cons
 // Luz's BVH, transmission and delta lobes included.
 const char* const kMaterialModels[] = {"diffuse",   "phong",          "blinnphong", "ward",
                                        "conductor", "roughconductor", "dielectric", "roughdielectric",
-                                       "thindielectric", "plastic"};
+                                       "thindielectric", "plastic", "roughplastic"};
 constexpr int kNumMaterialModels = int(sizeof kMaterialModels / sizeof kMaterialModels[0]);
 
 Scene material_scene(const char* model, uint32_t spp, uint64_t seed) {

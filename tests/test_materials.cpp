@@ -25,7 +25,7 @@
 //        vector with D, Λ and G2 written out independently of luz's code;
 //        checked per pixel (z-test, Šidák) for path, bsdf and light.
 //  * Estimator agreement with every lobe mix (rough glass, smooth glass, a
-//    mirror, smooth plastic, a diffuse/glass blend) in front of a sphere
+//    mirror, smooth and rough plastic, a diffuse/glass blend) in front of a sphere
 //    light, over a diffuse floor. The bsdf estimator never uses shadow rays;
 //    path and light do (on both sides of rough glass), and they weigh
 //    emission after delta samples as 1. The three must agree per block.
@@ -363,7 +363,8 @@ TEST(Materials, RoughConductorFurnaceMatchesSingleScatteringAlbedo) {
 // diffuse floor: rough glass (NEE through the surface, both sides), smooth
 // glass and a mirror (delta only: no NEE; caustics reach the floor only by
 // BSDF sampling, weight 1 in every estimator), smooth plastic (a delta coat
-// over a diffuse base: NEE for the base, weight 1 for the coat), and a blend
+// over a diffuse base: NEE for the base, weight 1 for the coat), rough
+// plastic (MIS over both of its lobes), and a blend
 // of diffuse and glass. The three estimators must agree per block. The light
 // is large on purpose: with a small one, paths that only NEE finds easily
 // (e.g. floor -> glass -> light) are so rare for the bsdf estimator that in
@@ -381,6 +382,7 @@ TEST(Materials, EstimatorsAgreeWithEveryLobeMix) {
       {"smooth glass", Bsdf::make_smooth_dielectric(1.5f, 1.f), 512},
       {"mirror", Bsdf::make_smooth_conductor({0.2f, 0.9f, 1.1f}, {3.9f, 2.4f, 2.1f}), 512},
       {"plastic", Bsdf::make_smooth_plastic({0.5f, 0.3f, 0.2f}), 512},
+      {"rough plastic", Bsdf::make_rough_plastic(MicrofacetType::GGX, 0.2f, {0.5f, 0.3f, 0.2f}), 512},
       {"blend diffuse+glass",
        Bsdf::make_blend(Bsdf::make_diffuse({0.7f, 0.7f, 0.7f}), Bsdf::make_smooth_dielectric(1.5f, 1.f), 0.5f), 512},
   };

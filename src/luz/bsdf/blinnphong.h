@@ -1,7 +1,8 @@
 // Normalised Blinn-Phong (Blinn 1977, "Models of light reflection for
 // computer synthesized pictures"), with the approximate energy
 // normalisation (n + 8) / (8π) of Akenine-Möller, Haines & Hoffman,
-// Real-Time Rendering 3rd ed. (2008), §7.6 (after Sloan & Hoffman):
+// Real-Time Rendering 3rd ed. (2008), chapter 7 "Advanced Shading" (after
+// Sloan & Hoffman):
 //   f = k_d / π + k_s (n + 8) / (8π) cos^n θh,   h = (wo + wi)/|wo + wi|.
 // It is reciprocal but conserves energy only approximately (the factor is a
 // fit, not an exact normalisation): tests/test_bsdf_models.cpp measures and

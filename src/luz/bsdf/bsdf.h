@@ -12,6 +12,7 @@
 #include "luz/bsdf/conductor.h"
 #include "luz/bsdf/dielectric.h"
 #include "luz/bsdf/plastic.h"
+#include "luz/bsdf/roughplastic.h"
 #include "luz/bsdf/ward.h"
 #include "luz/math/vec.h"
 #include "luz/sampling/warp.h"
@@ -29,6 +30,7 @@ enum class BsdfType : uint32_t {
   SmoothPlastic,
   BlinnPhong,
   Ward,
+  RoughPlastic,
 };
 
 // Lambertian reflector: f = ρ/π.
@@ -120,6 +122,7 @@ struct BsdfComponent {
     SmoothPlasticBsdf smooth_plastic;
     BlinnPhongBsdf blinn_phong;
     WardBsdf ward;
+    RoughPlasticBsdf rough_plastic;
   };
 
   // The models' members have default initialisers, so the union needs a
@@ -150,6 +153,7 @@ struct BsdfComponent {
       case BsdfType::SmoothPlastic: return smooth_plastic.f(wo, wi);
       case BsdfType::BlinnPhong: return blinn_phong.f(wo, wi);
       case BsdfType::Ward: return ward.f(wo, wi);
+      case BsdfType::RoughPlastic: return rough_plastic.f(wo, wi);
       default: return diffuse.f(wo, wi);
     }
   }
@@ -164,6 +168,7 @@ struct BsdfComponent {
       case BsdfType::SmoothPlastic: return smooth_plastic.pdf(wo, wi);
       case BsdfType::BlinnPhong: return blinn_phong.pdf(wo, wi);
       case BsdfType::Ward: return ward.pdf(wo, wi);
+      case BsdfType::RoughPlastic: return rough_plastic.pdf(wo, wi);
       default: return diffuse.pdf(wo, wi);
     }
   }
@@ -178,6 +183,7 @@ struct BsdfComponent {
       case BsdfType::SmoothPlastic: return smooth_plastic.sample(wo, u1, u2);
       case BsdfType::BlinnPhong: return blinn_phong.sample(wo, u1, u2);
       case BsdfType::Ward: return ward.sample(wo, u1, u2);
+      case BsdfType::RoughPlastic: return rough_plastic.sample(wo, u1, u2);
       default: return diffuse.sample(wo, u1, u2);
     }
   }
@@ -193,7 +199,11 @@ struct BsdfComponent {
 // `two_sided` mirrors the local frame for reflection-only components so the
 // back face behaves like the front (Mitsuba's `twosided`); one-sided ones are
 // black from behind. Transmissive components (dielectrics) see wo as it is,
-// on either side.
+// on either side. Mitsuba's `twosided` with two nested BSDFs (the first for
+// the front, the second for the back) sets `has_back`: a query whose wo is
+// below the surface (wo.z < 0) is then answered by the `back` component alone,
+// in the mirrored frame, and the front (a component or a blend) serves wo.z > 0.
+// The back slot holds one component (not a blend): again no recursion.
 //
 // Every sample carries BsdfSample::delta / transmission / eta (common.h).
 // f() and pdf() never include delta lobes.
@@ -201,7 +211,12 @@ struct Bsdf : BsdfComponent {
   bool two_sided = false;
   bool blend = false;
   float blend_weight = 0.f;  // w: the share of `second`
+  bool has_back = false;      // two_sided with a different BSDF behind
   BsdfComponent second;
+  BsdfComponent back;
+
+  // wo is on the back side and a separate back BSDF serves it.
+  LUZ_INLINE bool use_back(Vec3 wo) const { return has_back && wo.z < 0.f; }
 
   // Brings wo to the upper hemisphere; false if the surface is black from there.
   LUZ_INLINE bool orient(Vec3& wo, float& flip) const {
@@ -243,13 +258,14 @@ struct Bsdf : BsdfComponent {
   // The Lambertian case is the common one (every Cornell box wall): it takes
   // an inlined path, not the dispatch through every model (measured: the
   // generic switch made the Cornell benchmark 13% slower).
-  LUZ_INLINE bool plain_diffuse() const { return type == BsdfType::Diffuse && !blend; }
+  LUZ_INLINE bool plain_diffuse() const { return type == BsdfType::Diffuse && !blend && !has_back; }
 
   LUZ_INLINE Color f(Vec3 wo, Vec3 wi, TransportMode mode = TransportMode::Radiance) const {
     if (plain_diffuse()) {
       if (!(wo.z > 0.f || (two_sided && wo.z < 0.f)) || wo.z * wi.z <= 0.f) return {};
       return diffuse.reflectance * kInvPi;
     }
+    if (use_back(wo)) return component_f(back, wo, wi, mode);
     if (!blend) return component_f(*this, wo, wi, mode);
     return component_f(*this, wo, wi, mode) * (1.f - blend_weight) +
            component_f(second, wo, wi, mode) * blend_weight;
@@ -260,6 +276,7 @@ struct Bsdf : BsdfComponent {
       if (!(wo.z > 0.f || (two_sided && wo.z < 0.f)) || wo.z * wi.z <= 0.f) return 0.f;
       return fabsf(wi.z) * kInvPi;
     }
+    if (use_back(wo)) return component_pdf(back, wo, wi);
     if (!blend) return component_pdf(*this, wo, wi);
     return component_pdf(*this, wo, wi) * (1.f - blend_weight) + component_pdf(second, wo, wi) * blend_weight;
   }
@@ -273,6 +290,7 @@ struct Bsdf : BsdfComponent {
       s.wi.z *= flip;
       return s;
     }
+    if (use_back(wo)) return component_sample(back, wo, u1, u2, mode);
     if (!blend) return component_sample(*this, wo, u1, u2, mode);
     float w = blend_weight;
     bool pick_second = u1 < w;
@@ -294,9 +312,16 @@ struct Bsdf : BsdfComponent {
     return s;
   }
 
-  LUZ_INLINE bool delta_only() const { return BsdfComponent::delta_only() && (!blend || second.delta_only()); }
-  LUZ_INLINE bool has_delta() const { return BsdfComponent::has_delta() || (blend && second.has_delta()); }
-  LUZ_INLINE bool has_transmission() const { return transmissive() || (blend && second.transmissive()); }
+  // Over both sides (the integrator asks without a direction).
+  LUZ_INLINE bool delta_only() const {
+    return BsdfComponent::delta_only() && (!blend || second.delta_only()) && (!has_back || back.delta_only());
+  }
+  LUZ_INLINE bool has_delta() const {
+    return BsdfComponent::has_delta() || (blend && second.has_delta()) || (has_back && back.has_delta());
+  }
+  LUZ_INLINE bool has_transmission() const {
+    return transmissive() || (blend && second.transmissive()) || (has_back && back.transmissive());
+  }
 
   LUZ_INLINE static Bsdf make_diffuse(Color r, bool two_sided = false) {
     Bsdf b;
@@ -359,13 +384,13 @@ struct Bsdf : BsdfComponent {
                                              param(refl), param(trans)};
     return b;
   }
-  // Mitsuba `plastic` (nonlinear = false). Host only (integrates F_dr).
+  // Mitsuba `plastic`. Host only (integrates F_dr).
   static Bsdf make_smooth_plastic(Color diffuse, Color specular = {1.f, 1.f, 1.f}, float int_ior = 1.49f,
-                                  float ext_ior = 1.000277f, bool two_sided = false) {
+                                  float ext_ior = 1.000277f, bool two_sided = false, bool nonlinear = false) {
     Bsdf b;
     b.type = BsdfType::SmoothPlastic;
     b.two_sided = two_sided;
-    b.smooth_plastic = SmoothPlasticBsdf::make(diffuse, specular, int_ior, ext_ior);
+    b.smooth_plastic = SmoothPlasticBsdf::make(diffuse, specular, int_ior, ext_ior, nonlinear);
     return b;
   }
   LUZ_INLINE static Bsdf make_blinn_phong(Color kd, Color ks, float n, bool two_sided = false) {
@@ -375,7 +400,19 @@ struct Bsdf : BsdfComponent {
     b.blinn_phong = BlinnPhongBsdf{param(kd), param(ks), scalar_param(n)};
     return b;
   }
-  // Mitsuba 0.5 `ward` (variants "ward" and "balanced").
+  // Mitsuba `roughplastic`: distribution, alpha (isotropic), int_ior, ext_ior,
+  // diffuse_reflectance, specular_reflectance, nonlinear. Host only (tabulates
+  // the coat's albedos).
+  static Bsdf make_rough_plastic(MicrofacetType t, float alpha, Color diffuse, Color specular = {1.f, 1.f, 1.f},
+                                 float int_ior = 1.49f, float ext_ior = 1.000277f, bool nonlinear = false,
+                                 bool two_sided = false) {
+    Bsdf b;
+    b.type = BsdfType::RoughPlastic;
+    b.two_sided = two_sided;
+    b.rough_plastic = RoughPlasticBsdf::make(t, alpha, diffuse, specular, int_ior, ext_ior, nonlinear);
+    return b;
+  }
+  // Mitsuba 0.6 `ward` (variants "ward", "ward-duer" and "balanced").
   LUZ_INLINE static Bsdf make_ward(WardVariant v, Color kd, Color ks, float alpha_u, float alpha_v,
                                    bool two_sided = false) {
     Bsdf b;
@@ -391,6 +428,15 @@ struct Bsdf : BsdfComponent {
     r.blend = true;
     r.blend_weight = clamp(weight, 0.f, 1.f);
     r.second = b;  // slices off b's wrapper fields
+    return r;
+  }
+  // Mitsuba `twosided` with two nested BSDFs: `front` for wo.z > 0 (it may be
+  // a blend), `back` for wo.z < 0 (one component), both reflection only.
+  LUZ_INLINE static Bsdf make_two_sided(const Bsdf& front, const Bsdf& back) {
+    Bsdf r = front;
+    r.two_sided = true;
+    r.has_back = true;
+    r.back = back;  // slices off back's wrapper fields
     return r;
   }
 };

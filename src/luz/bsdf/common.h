@@ -5,6 +5,7 @@
 #pragma once
 
 #include "luz/math/vec.h"
+#include "luz/sampling/warp.h"
 
 namespace luz {
 
@@ -59,6 +60,24 @@ LUZ_INLINE BsdfSample finish_reflection_sample(const Model& m, Vec3 wo, BsdfSamp
   s.weight = m.f(wo, s.wi) * (s.wi.z / s.pdf);
   s.valid = true;
   return s;
+}
+
+// Sampling a "glossy facet lobe or Lambertian" mixture (wo above the
+// surface): the facet normal h from sample_facet(u2), wi = reflect(wo, h) (h
+// facing away from wo is a failed sample), or wi cosine-weighted; then as
+// finish_reflection_sample.
+template <class Model, class FacetSampler>
+LUZ_INLINE BsdfSample sample_facet_or_cosine(const Model& m, Vec3 wo, bool facet, Vec2 u2,
+                                             FacetSampler sample_facet) {
+  BsdfSample s;
+  if (facet) {
+    Vec3 h = sample_facet(u2);
+    if (!(dot(wo, h) > 0.f)) return s;
+    s.wi = reflect(wo, h);
+  } else {
+    s.wi = square_to_cosine_hemisphere(u2);
+  }
+  return finish_reflection_sample(m, wo, s);
 }
 
 }  // namespace luz

@@ -12,8 +12,8 @@
 // TransportMode::Radiance (the path tracer: wo toward the camera, light
 // arrives along wi) the BTDF carries the factor (η_wo/η_wi)² = 1/η², η =
 // η_wi/η_wo = BsdfSample::eta; in Importance mode it does not. Walter et al.
-// 2007, eq. 21 is the radiance form; the generalised reciprocity (their
-// §3.2, Veach eq. 5.14) reads f(wo, wi) / η_wo² = f(wi, wo) / η_wi².
+// 2007, eq. 21 is the radiance form; the generalised reciprocity (Veach
+// 1997, §5.2) reads f(wo, wi) / η_wo² = f(wi, wo) / η_wi².
 #pragma once
 
 #include "luz/bsdf/common.h"
@@ -97,7 +97,8 @@ struct ThinDielectricBsdf {
 //
 // Sampling: a visible normal m of the side wo is on (Heitz & d'Eon 2014 with
 // the view -wo when wo is inside), then reflection with probability F(wo·m)
-// and refraction otherwise (Walter §5.3 with D_wo in place of D cos):
+// and refraction otherwise (Walter et al.'s sampling section, with D_wo in
+// place of D cos):
 //   pdf_r = F D_wo(m) / (4 |wo·m|)  (eq. 14),
 //   pdf_t = (1 - F) D_wo(m) η² |wi·m| / (wo·m + η wi·m)²  (eq. 17),
 //   weight = G2 / G1(wo) (× 1/η² for radiance refraction).

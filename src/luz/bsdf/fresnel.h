@@ -116,13 +116,13 @@ LUZ_INLINE float fresnel_diffuse_reflectance(float eta, int n = 2048) {
 
 // --- presets ----------------------------------------------------------------
 
-// Dielectric IORs at ~589 nm, Mitsuba's named table (its `dielectric` docs).
+// Dielectric IORs at ~589 nm, Mitsuba 3's named table (include/mitsuba/render/ior.h).
 struct IorPreset {
   const char* name;
   float ior;
 };
 inline constexpr IorPreset kIorPresets[] = {
-    {"vacuum", 1.0f},          {"helium", 1.00004f},        {"hydrogen", 1.00013f},
+    {"vacuum", 1.0f},          {"helium", 1.000036f},       {"hydrogen", 1.000132f},
     {"air", 1.000277f},        {"carbon dioxide", 1.00045f}, {"water", 1.333f},
     {"acetone", 1.36f},        {"ethanol", 1.361f},          {"carbon tetrachloride", 1.461f},
     {"glycerol", 1.4729f},     {"benzene", 1.501f},          {"silicone oil", 1.52045f},
@@ -134,23 +134,39 @@ inline constexpr IorPreset kIorPresets[] = {
     {"glass", 1.5f},           {"polycarbonate", 1.585f},
 };
 
-// Conductors: complex IOR η + ik per RGB channel, sampled at 650 / 550 /
-// 450 nm from the refractive-index data of refractiveindex.info (as
-// tabulated in Chaos Group's "Understanding metalness", 2019). NOT Mitsuba's
-// spectral data integrated against the sRGB curves (Mitsuba's RGB mode
-// upsamples the spectra differently): colours agree closely, the numbers
-// differ in the second digit. "none" is Mitsuba's perfect mirror (F = 1).
+// Conductors: complex IOR η + ik per RGB channel.
+//
+// Mitsuba's names, with the RGB values Mitsuba 3 itself uses in its RGB
+// modes, recomputed offline the way it computes them (Mitsuba 3,
+// include/mitsuba/render/ior.h `complex_ior_from_file` and
+// src/core/spectrum.cpp `spectrum_list_to_srgb`): the spectral file
+// data/ior/<name>.{eta,k}.spd (Mitsuba's luxpop.com data, read from Mitsuba's
+// repository) is scaled by 1/106.7502593994140625 (MI_CIE_Y_NORMALIZATION),
+// interpolated linearly at 1000 wavelengths spaced uniformly over
+// [360, 830] nm (wavelengths outside the file's range skipped), multiplied by
+// the CIE 1931 2° matching functions (Mitsuba's 5 nm table, linearly
+// interpolated), summed and scaled by 470/1000, turned into linear sRGB with
+// Mitsuba's XYZ→Rec.709 matrix, negatives clamped to 0 (the script is not
+// part of Luz: it would have to carry the data). "none" is Mitsuba's perfect mirror (F = 1).
+//
+// Not (yet) here: Mitsuba's other names (a-C, AlAs, AlSb, Be, CsI, Cu2O,
+// CuO, d-C, Hg, HgTe, Ir, K, Li, MgO, Mo, Na_palik, Nb, Ni_palik, Rh, Se,
+// SiC, SnTe, Ta, Te, ThF4, TiC, TiN, TiO2, VC, V_palik, VN, W): the loader
+// refuses them by name. "Fe" and "Pt" are Luz extras, not Mitsuba names:
+// η, k sampled at 650 / 550 / 450 nm from refractiveindex.info (as
+// tabulated in Chaos Group's "Understanding metalness", 2019), a different
+// (point-sampled) conversion from the one above.
 struct ConductorPreset {
   const char* name;
   Color eta, k;
 };
 inline constexpr ConductorPreset kConductorPresets[] = {
     {"none", {0.f, 0.f, 0.f}, {1.f, 1.f, 1.f}},
-    {"Au", {0.18299f, 0.42108f, 1.3734f}, {3.4242f, 2.3459f, 1.7704f}},
-    {"Ag", {0.15943f, 0.14512f, 0.13547f}, {3.9291f, 3.19f, 2.3808f}},
-    {"Cu", {0.27105f, 0.67693f, 1.3164f}, {3.6092f, 2.6248f, 2.2921f}},
-    {"Al", {1.3456f, 0.96521f, 0.61722f}, {7.4746f, 6.3995f, 5.3031f}},
-    {"Cr", {3.1071f, 3.1812f, 2.323f}, {3.3314f, 3.3291f, 3.135f}},
+    {"Au", {0.143036f, 0.375307f, 1.44205f}, {3.983f, 2.38556f, 1.60336f}},
+    {"Ag", {0.155276f, 0.116728f, 0.138388f}, {4.82835f, 3.12222f, 2.1469f}},
+    {"Cu", {0.201006f, 0.923749f, 1.10222f}, {3.91326f, 2.45305f, 2.14209f}},
+    {"Al", {1.6575f, 0.880405f, 0.521244f}, {9.22381f, 6.2695f, 4.837f}},
+    {"Cr", {4.36967f, 2.91651f, 1.6549f}, {5.20655f, 4.23131f, 3.7547f}},
     {"Fe", {2.9114f, 2.9497f, 2.5845f}, {3.0893f, 2.9318f, 2.767f}},
     {"Pt", {2.3757f, 2.0847f, 1.8453f}, {4.2655f, 3.7153f, 3.1365f}},
 };

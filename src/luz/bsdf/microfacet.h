@@ -3,17 +3,19 @@
 //
 // All directions live in the local shading frame (macro normal +z). Sources:
 //  [H14] E. Heitz, "Understanding the Masking-Shadowing Function in
-//        Microfacet-Based BRDFs", JCGT 3(2), 2014: D (§5, eqs. for Beckmann and
-//        GGX with the anisotropic α(φ) of §5.4), Smith Λ (§5.1/§5.2), G1 =
-//        χ⁺(ω·m) / (1 + Λ(ω)), and the height-correlated masking-shadowing
-//        G2 = χ⁺(ωo·m) χ⁺(ωi·m) / (1 + Λ(ωo) + Λ(ωi)) (§6.2, eq. 99).
+//        Microfacet-Based BRDFs", JCGT 3(2), 2014: the Beckmann and GGX
+//        distributions, isotropic and anisotropic (the projected roughness
+//        α(φ)), their Smith Λ (GGX: eq. 72), G1 = χ⁺(ω·m) / (1 + Λ(ω)), and
+//        the height-correlated masking-shadowing function
+//        G2 = χ⁺(ωo·m) χ⁺(ωi·m) / (1 + Λ(ωo) + Λ(ωi)) (eq. 99).
 //  [HD14] E. Heitz, E. d'Eon, "Importance Sampling Microfacet-Based BSDFs
 //        using the Distribution of Visible Normals", EGSR 2014: the density of
-//        visible normals D_ω(m) = G1(ω, m) max(0, ω·m) D(m) / cos θ (eq. 2)
-//        and its sampling by stretching to α = 1, sampling the visible slope
-//        distribution, rotating and unstretching (§4, Appendix for Beckmann).
+//        visible normals D_ω(m) = G1(ω, m) max(0, ω·m) D(m) / cos θ and its
+//        sampling by stretching to α = 1, sampling the visible slope
+//        distribution, rotating and unstretching (with the Beckmann case).
 //  [H18] E. Heitz, "Sampling the GGX Distribution of Visible Normals", JCGT
-//        7(4), 2018 (Listing 1 and §§3.2, 3.4, 4.1-4.3): the exact GGX routine.
+//        7(4), 2018 (Appendix A, Listing 1, whose steps are §§3.2, 4.1-4.3 and
+//        3.4): the exact GGX routine.
 //  [W07] B. Walter, S. Marschner, H. Li, K. Torrance, "Microfacet Models for
 //        Refraction through Rough Surfaces", EGSR 2007: Beckmann D (eq. 25)
 //        and GGX D (eq. 33), sampling m ∝ D(m) cos θm (eqs. 28, 35).
@@ -44,7 +46,7 @@ struct MicrofacetDistribution {
     return d;
   }
 
-  // D(m), normalised so that ∫ D(m) cos θm dωm = 1 ([H14] §5, [W07] eqs. 25, 33).
+  // D(m), normalised so that ∫ D(m) cos θm dωm = 1 ([H14], [W07] eqs. 25, 33).
   LUZ_INLINE float D(Vec3 m) const {
     if (m.z <= 0.f) return 0.f;
     float z2 = m.z * m.z;
@@ -57,8 +59,8 @@ struct MicrofacetDistribution {
     return 1.f / (kPi * alpha_u * alpha_v * z2 * z2 * d * d);
   }
 
-  // Smith Λ(ω) ([H14] §5.1 Beckmann, §5.2 GGX; anisotropic via the projected
-  // roughness α(φ)² tan²θ = (αu² x² + αv² y²) / z²).
+  // Smith Λ(ω) ([H14]'s closed forms for Beckmann and GGX, eq. 72 for GGX;
+  // anisotropic via the projected roughness α(φ)² tan²θ = (αu² x² + αv² y²) / z²).
   LUZ_INLINE float lambda(Vec3 w) const {
     float z2 = w.z * w.z;
     float a2t2 = (alpha_u * alpha_u * w.x * w.x + alpha_v * alpha_v * w.y * w.y);  // α² tan²θ · z²
@@ -81,14 +83,14 @@ struct MicrofacetDistribution {
     if (dot(w, m) * w.z <= 0.f) return 0.f;
     return 1.f / (1.f + lambda(w));
   }
-  // Height-correlated masking-shadowing ([H14] §6.2, eq. 99).
+  // Height-correlated masking-shadowing ([H14] eq. 99).
   LUZ_INLINE float G2(Vec3 wo, Vec3 wi, Vec3 m) const {
     if (dot(wo, m) * wo.z <= 0.f || dot(wi, m) * wi.z <= 0.f) return 0.f;
     return 1.f / (1.f + lambda(wo) + lambda(wi));
   }
 
   // Density of normals visible from w (w.z > 0), per unit solid angle of m
-  // ([HD14] eq. 2): D_w(m) = G1(w, m) max(0, w·m) D(m) / cos θ.
+  // ([HD14]): D_w(m) = G1(w, m) max(0, w·m) D(m) / cos θ.
   LUZ_INLINE float pdf_visible(Vec3 w, Vec3 m) const {
     float wm = dot(w, m);
     if (w.z <= 0.f || wm <= 0.f) return 0.f;
@@ -120,7 +122,7 @@ struct MicrofacetDistribution {
     return normalize(Vec3{alpha_u * nh.x, alpha_v * nh.y, max(0.f, nh.z)});
   }
 
-  // Beckmann, after [HD14] §4: stretch w to α = 1, sample the visible slopes
+  // Beckmann, after [HD14]: stretch w to α = 1, sample the visible slopes
   // (x̃, ỹ) for a view at polar angle θ in the xz plane, rotate by the view's
   // azimuth, unstretch, and turn the slope into a normal.
   //

@@ -1,6 +1,6 @@
 // Smooth plastic: a diffuse base under a smooth dielectric coat, Mitsuba's
-// `plastic` with nonlinear = false (W. Jakob, Mitsuba documentation, after
-// Weidlich & Wilkie 2007, "Arbitrarily layered micro-facet surfaces"):
+// `plastic` (W. Jakob, Mitsuba documentation, after Weidlich & Wilkie 2007,
+// "Arbitrarily layered micro-facet surfaces"):
 //   specular: delta reflection with amplitude specular_reflectance · F(cos θo),
 //   diffuse:  f = (1 - F(cos θo)) (1 - F(cos θi)) / η² · ρ / (1 - F_dr,int) / π,
 // with F the dielectric Fresnel term (η = int_ior / ext_ior) and F_dr,int
@@ -10,6 +10,9 @@
 // ρ/(1 - F_dr,int), not ρ/(1 - ρ F_dr,int), so the diffuse albedo
 // is exactly (1 - F(cos θo)) ρ, because the coat's outside and inside
 // hemispherical transmittances obey 1 - F_dr,ext = η² (1 - F_dr,int).
+// nonlinear = true (Mitsuba's option): ρ/(1 - ρ F_dr,int), the geometric
+// series of the light bouncing between base and coat, which darkens and
+// saturates colours; its albedo is below the linear one.
 //
 // Sampling as Mitsuba's: the specular lobe with probability
 //   P_s = F w_s / (F w_s + (1 - F)(1 - w_s)),  w_s = mean(ks) / (mean(ks) + mean(ρ)),
@@ -28,9 +31,12 @@ struct SmoothPlasticBsdf {
   float eta = 1.49f / 1.000277f;  // Mitsuba's defaults: polypropylene in air
   float fdr_int = 0.f;            // set by make()
   float specular_sampling_weight = 0.5f;
+  bool nonlinear = false;
 
-  static SmoothPlasticBsdf make(Color diffuse, Color specular, float int_ior = 1.49f, float ext_ior = 1.000277f) {
+  static SmoothPlasticBsdf make(Color diffuse, Color specular, float int_ior = 1.49f, float ext_ior = 1.000277f,
+                                bool nonlinear = false) {
     SmoothPlasticBsdf p;
+    p.nonlinear = nonlinear;
     p.diffuse_reflectance = param(diffuse);
     p.specular_reflectance = param(specular);
     p.eta = int_ior / ext_ior;
@@ -47,8 +53,11 @@ struct SmoothPlasticBsdf {
   LUZ_INLINE Color f(Vec3 wo, Vec3 wi) const {
     if (!(wo.z > 0.f) || !(wi.z > 0.f)) return {};
     float Fo = fresnel_dielectric(wo.z, eta).F, Fi = fresnel_dielectric(wi.z, eta).F;
-    float scale = (1.f - Fo) * (1.f - Fi) / (eta * eta * (1.f - fdr_int)) * kInvPi;
-    return diffuse_reflectance.eval() * scale;
+    float scale = (1.f - Fo) * (1.f - Fi) / (eta * eta) * kInvPi;
+    Color rho = diffuse_reflectance.eval();
+    if (!nonlinear) return rho * (scale / (1.f - fdr_int));
+    return {rho.x * scale / (1.f - rho.x * fdr_int), rho.y * scale / (1.f - rho.y * fdr_int),
+            rho.z * scale / (1.f - rho.z * fdr_int)};
   }
   LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
     if (!(wo.z > 0.f) || !(wi.z > 0.f)) return 0.f;

@@ -2,8 +2,8 @@
 // path|bsdf|light, sensor perspective, samplers, hdrfilm with box/tent/gaussian
 // rfilter, shapes obj/rectangle/cube/sphere, area and constant emitters, bsdfs
 // diffuse, phong, blinnphong (Luz's own), conductor, roughconductor,
-// dielectric, roughdielectric, thindielectric, plastic (nonlinear = false),
-// ward (ward, balanced), blendbsdf, twosided. Anything else is an error naming file and line:
+// dielectric, roughdielectric, thindielectric, plastic, roughplastic, ward (ward, ward-duer, balanced), blendbsdf, twosided (one or
+// two nested bsdfs). Anything else is an error naming file and line:
 // a renderer that silently ignores what it does not know renders the wrong image.
 #include <pugixml.hpp>
 
@@ -523,20 +523,32 @@ class MitsubaParser {
   Bsdf parse_bsdf_value(pugi::xml_node n) {
     std::string type = attr(n, "type");
     if (type == "twosided") {
+      // Mitsuba 3: one nested bsdf for both sides, or two: the first for the
+      // front, the second for the back.
       check_children(n, {"bsdf", "ref"});
       Props p(this, n);
       p.check_all_used();
       std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
-      if (inner.size() != 1) error(n, "twosided needs exactly one nested bsdf");
-      if (std::string(inner[0].name()) == "bsdf" && attr(inner[0], "type") == "twosided")
-        error(inner[0], "twosided cannot wrap another twosided");
-      Bsdf b = nested_bsdf(inner[0]);
-      // Mitsuba 3's twosided refuses transmissive materials ("Only materials
-      // without a transmission component can be nested!"): dielectrics are
-      // two-sided by nature.
-      if (b.has_transmission()) error(n, "twosided cannot wrap a material that transmits light (a dielectric)");
-      b.two_sided = true;
-      return b;
+      if (inner.size() != 1 && inner.size() != 2) error(n, "twosided needs one or two nested bsdfs");
+      Bsdf sides[2];
+      for (size_t i = 0; i < inner.size(); ++i) {
+        if (std::string(inner[i].name()) == "bsdf" && attr(inner[i], "type") == "twosided")
+          error(inner[i], "twosided cannot wrap another twosided");
+        sides[i] = nested_bsdf(inner[i]);
+        if (sides[i].has_back) error(inner[i], "twosided cannot wrap another twosided");
+        // Mitsuba 3's twosided refuses transmissive materials ("Only materials
+        // without a transmission component can be nested!"): dielectrics are
+        // two-sided by nature.
+        if (sides[i].has_transmission())
+          error(n, "twosided cannot wrap a material that transmits light (a dielectric)");
+      }
+      if (inner.size() == 1) {
+        sides[0].two_sided = true;
+        return sides[0];
+      }
+      if (sides[1].blend)
+        error(inner[1], "a blendbsdf as the back side of a twosided is not supported (only as the front)");
+      return Bsdf::make_two_sided(sides[0], sides[1]);
     }
     if (type == "blendbsdf") {
       check_children(n, {"bsdf", "ref"});
@@ -548,11 +560,12 @@ class MitsubaParser {
       if (inner.size() != 2) error(n, "blendbsdf needs exactly two nested bsdfs");
       Bsdf a = nested_bsdf(inner[0]), b = nested_bsdf(inner[1]);
       if (a.blend || b.blend) error(n, "a blendbsdf inside a blendbsdf is not supported");
+      if (a.has_back || b.has_back)
+        error(n, "a twosided with two different bsdfs inside a blendbsdf is not supported");
       if (a.two_sided != b.two_sided)
         error(n, "the two bsdfs of a blendbsdf must both be twosided or both not (wrap the blend in twosided)");
       return Bsdf::make_blend(a, b, float(w));
     }
-    if (type == "roughplastic") error(n, "bsdf 'roughplastic' is not supported yet");
     check_children(n, {});
     Props p(this, n);
     Bsdf b;
@@ -603,14 +616,26 @@ class MitsubaParser {
       Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
       Color ks = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
       float int_ior = ior(n, p, "int_ior", "polypropylene"), ext_ior = ior(n, p, "ext_ior", "air");
-      if (p.get_bool("nonlinear", false)) error(n, "plastic with nonlinear = true is not supported yet");
-      b = Bsdf::make_smooth_plastic(kd, ks, int_ior, ext_ior, false);
+      bool nonlinear = p.get_bool("nonlinear", false);
+      b = Bsdf::make_smooth_plastic(kd, ks, int_ior, ext_ior, false, nonlinear);
+    } else if (type == "roughplastic") {
+      Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
+      Color ks = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
+      float int_ior = ior(n, p, "int_ior", "polypropylene"), ext_ior = ior(n, p, "ext_ior", "air");
+      bool nonlinear = p.get_bool("nonlinear", false);
+      MicrofacetType d = distribution(n, p);
+      float au, av;
+      roughness(n, p, au, av);
+      // As Mitsuba 3: isotropic only, and the two indices must differ.
+      if (au != av) error(n, "roughplastic supports isotropic roughness only (alpha_u = alpha_v)");
+      if (int_ior == ext_ior) error(n, "roughplastic needs int_ior != ext_ior");
+      b = Bsdf::make_rough_plastic(d, au, kd, ks, int_ior, ext_ior, nonlinear, false);
     } else if (type == "ward") {
       std::string v = p.get_string("variant", "balanced");
       WardVariant variant = WardVariant::Balanced;
       if (v == "ward") variant = WardVariant::Ward;
-      else if (v == "ward-duer") error(n, "ward variant 'ward-duer' is not supported yet (supported: ward, balanced)");
-      else if (v != "balanced") error(n, "unknown ward variant '" + v + "' (supported: ward, balanced)");
+      else if (v == "ward-duer") variant = WardVariant::WardDuer;
+      else if (v != "balanced") error(n, "unknown ward variant '" + v + "' (supported: ward, ward-duer, balanced)");
       double au = p.get_float("alpha_u", 0.1), av = p.get_float("alpha_v", 0.1);
       if (!(au > 0) || !(av > 0)) error(n, "roughness (alpha_u, alpha_v) must be positive");
       Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
@@ -620,7 +645,7 @@ class MitsubaParser {
     } else {
       error(n, "unknown bsdf '" + type +
                    "' (supported: diffuse, phong, blinnphong, conductor, roughconductor, dielectric, "
-                   "roughdielectric, thindielectric, plastic, ward, blendbsdf, twosided)");
+                   "roughdielectric, thindielectric, plastic, roughplastic, ward, blendbsdf, twosided)");
     }
     p.check_all_used();
     return b;
