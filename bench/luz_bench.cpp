@@ -179,9 +179,10 @@ int main(int argc, char** argv) {
     std::printf("luz bvh      %.2f Mrays/s host traversal of the same rays (%.2f × Embree)\n", bvh_rps * 1e-6,
                 bvh_rps / raw_rps);
     std::printf("bvh build    %.0f primitives: %.1f ms on 1 thread (%.2f Mprims/s), %.1f ms on %u (%.2f Mprims/s per "
-                "thread); %zu nodes, %.1f bytes/primitive\n",
+                "thread); %zu nodes, %.1f bytes/primitive, SAH cost %.2f\n",
                 prims, build1 * 1e3, prims / build1 * 1e-6, build_all * 1e3, nthreads,
-                prims / build_all / nthreads * 1e-6, bvh.nodes.size(), double(bvh.bytes()) / std::max(prims, 1.0));
+                prims / build_all / nthreads * 1e-6, bvh.nodes.size(), double(bvh.bytes()) / std::max(prims, 1.0),
+                luz::bvh_sah_cost(bvh));
     std::printf("| %s | %d×%d | %u | %.3f | %.2f | %.2f | %.2f | %.2f | %.2f | %.1f |\n", label.c_str(), cam.width,
                 cam.height, scene.settings.spp, sps * 1e-6, rps * 1e-6, raw_rps * 1e-6, rps / raw_rps, bvh_rps * 1e-6,
                 prims / build1 * 1e-6, double(bvh.bytes()) / std::max(prims, 1.0));

@@ -16,6 +16,7 @@ struct BvhBuildOptions {
   float traversal_cost = 1.f;    // SAH: cost of one node visit (two boxes) ...
   float intersection_cost = 1.f; // ... relative to one primitive test
   bool median_split = false;     // baseline: object median on the widest centroid axis
+  bool full_sweep = false;       // reference: exact SAH sweep over sorted centroids at every node (slow)
   int threads = 0;               // 0: the current TBB arena
 };
 
