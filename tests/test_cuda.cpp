@@ -100,7 +100,7 @@ Film cpu(const Scene& s, RenderStats* stats_out = nullptr) {
 
 // render_cuda's pass loop, on the host: the same PassParams over host
 // pointers, render_pixel_pass for every pixel, accumulate_pass per pass.
-Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_out = nullptr) {
+Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_out = nullptr, uint32_t threads = 1) {
   const SceneView view = scene.view();
   const Bvh bvh = build_bvh(view);
   const Camera& cam = view.camera;
@@ -112,8 +112,9 @@ Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_ou
   p.sampler = make_sampler_desc(rs.sampler, rs.spp, rs.seed);
   p.integrator = rs.integrator;
   p.filter = rs.filter;
-  std::vector<float> sum(3 * pixels), sum_sq(3 * pixels);
-  std::vector<uint32_t> count(pixels);
+  p.threads_per_pixel = threads;
+  std::vector<float> sum(3 * pixels * threads), sum_sq(3 * pixels * threads);
+  std::vector<uint32_t> count(pixels * threads);
   p.out = {sum.data(), sum_sq.data(), count.data()};
   Film film(cam.width, cam.height);
   std::atomic<uint64_t> rays{0};
@@ -127,10 +128,11 @@ Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_ou
     tbb::parallel_for(tbb::blocked_range<int>(0, cam.height), [&](const tbb::blocked_range<int>& r) {
       uint64_t n = 0;
       for (int y = r.begin(); y != r.end(); ++y)
-        for (int x = 0; x < cam.width; ++x) n += render_pixel_pass(p, uint32_t(x), uint32_t(y));
+        for (int x = 0; x < cam.width; ++x)
+          for (uint32_t t = 0; t < threads; ++t) n += render_pixel_pass(p, uint32_t(x), uint32_t(y), t);
       rays += n;
     });
-    discarded += accumulate_pass(film, sum.data(), sum_sq.data(), count.data(), p.num_samples, 0, pixels);
+    discarded += accumulate_pass(film, sum.data(), sum_sq.data(), count.data(), p.num_samples, 0, pixels, threads);
   }
   if (stats_out) {
     stats_out->samples = uint64_t(pixels) * p.sampler.spp;
@@ -373,6 +375,11 @@ TEST(CudaPassOnHost, SamplesPerPassDefault) {
   EXPECT_EQ(default_samples_per_pass(64 * 64, 5), 5u);
   EXPECT_EQ(default_samples_per_pass(3840 * 2160, 1024), 1u);
   EXPECT_EQ(default_samples_per_pass(0, 16), 1u);
+  EXPECT_EQ(default_threads_per_pixel(256 * 256, 32), 8u);  // 2^19 threads
+  EXPECT_EQ(default_threads_per_pixel(64 * 64, 64), 64u);   // capped by the pass's samples
+  EXPECT_EQ(default_threads_per_pixel(3840 * 2160, 1), 1u);
+  EXPECT_EQ(default_threads_per_pixel(1000 * 1000, 8), 1u);
+  EXPECT_EQ(default_threads_per_pixel(0, 16), 1u);
 }
 
 TEST(CudaPassOnHost, FirstSampleMatchesCpu) {
@@ -404,6 +411,27 @@ TEST(CudaPassOnHost, SamplesPerPassChangesOnlyRounding) {
   // One sample per pass: the sums are the CPU's own accumulation of the same floats.
   Film again = passes_on_host(s, 1);
   EXPECT_TRUE(again.sum == one.sum) << "deterministic";
+}
+
+// Splitting each pixel's pass among T threads changes only how the float
+// sums are grouped: the same samples (counts equal), sums within float
+// rounding. 20 samples in passes of 7 (the last pass 6): uneven shares, and
+// with T = 7 a thread with no sample in the last pass.
+TEST(CudaPassOnHost, ThreadsPerPixelChangeOnlyRounding) {
+  Scene s = cornell(24, 20, 8);
+  Film one = passes_on_host(s, 7, nullptr, 1);
+  for (uint32_t threads : {2u, 3u, 7u}) {
+    Film f = passes_on_host(s, 7, nullptr, threads);
+    EXPECT_EQ(f.count, one.count) << threads;
+    for (size_t i = 0; i < one.sum.size(); ++i) {
+      // Float sums of ≤ 7 samples per pass, 3 passes: ≤ 7 ε relative to the sum of magnitudes each.
+      ASSERT_NEAR(f.sum[i], one.sum[i], 3 * 7 * 6e-8 * std::max(1.0, one.sum[i])) << threads << " " << i;
+      ASSERT_NEAR(f.sum_sq[i], one.sum_sq[i], 3 * 14 * 6e-8 * std::max(1.0, one.sum_sq[i])) << threads << " " << i;
+    }
+  }
+  // And the split really happened: some float sums differ in their last bits.
+  Film three = passes_on_host(s, 7, nullptr, 3);
+  EXPECT_NE(three.sum, one.sum) << "T = 3 grouped the sums exactly as T = 1: was the split ignored?";
 }
 
 TEST(CudaPassOnHost, SpheresAndFlatShadingMatchCpu) {
@@ -465,6 +493,21 @@ TEST(CudaDevice, SamplesPerPassChangesOnlyRounding) {
   EXPECT_EQ(many.count, one.count);
   for (size_t i = 0; i < one.sum.size(); ++i)
     ASSERT_NEAR(many.sum[i], one.sum[i], 7 * 6e-8 * std::max(1.0, one.sum[i])) << i;
+}
+
+TEST(CudaDevice, ThreadsPerPixelChangeOnlyRounding) {
+  REQUIRE_GPU();
+  Scene s = cornell(48, 20, 9);
+  CudaRenderOptions opt;
+  opt.samples_per_pass = 7;
+  RenderStats st;
+  opt.threads_per_pixel = 1;
+  Film one = render_cuda(s, opt, st);
+  opt.threads_per_pixel = 3;
+  Film three = render_cuda(s, opt, st);
+  EXPECT_EQ(three.count, one.count);
+  for (size_t i = 0; i < one.sum.size(); ++i)
+    ASSERT_NEAR(three.sum[i], one.sum[i], 3 * 7 * 6e-8 * std::max(1.0, one.sum[i])) << i;
 }
 
 TEST(CudaDevice, SpheresAndFlatShadingMatchCpu) {

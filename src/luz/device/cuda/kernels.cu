@@ -1,4 +1,4 @@
-// The CUDA megakernel: one thread per pixel runs render_pixel_pass (pass.h),
+// The CUDA megakernel: T threads per pixel (pass.h) run render_pixel_pass,
 // i.e. the shared path tracer (integrator/path.h) over Luz's own BVH
 // (accel/bvh.h, BvhTracer: Aila-Laine stack traversal; its intersect() is
 // OptiX's closest-hit query, occluded() the any-hit shadow query). Everything
@@ -10,7 +10,8 @@ namespace luz::cuda {
 __global__ void __launch_bounds__(kBlockX * kBlockY) render_pass_kernel(PassParams p, unsigned long long* rays) {
   const uint32_t x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
   uint64_t n = 0;
-  if (x < uint32_t(p.scene.camera.width) && y < uint32_t(p.scene.camera.height)) n = render_pixel_pass(p, x, y);
+  if (x < uint32_t(p.scene.camera.width) && y < uint32_t(p.scene.camera.height))
+    n = render_pixel_pass(p, x, y, blockIdx.z);  // blockIdx.z: the thread's share of the pixel's samples
   // One atomic per warp: every lane reaches the reduction (no early return).
   for (int offset = 16; offset > 0; offset /= 2) n += __shfl_down_sync(0xffffffffu, n, offset);
   if (((threadIdx.y * blockDim.x + threadIdx.x) & 31u) == 0 && n != 0) atomicAdd(rays, (unsigned long long)n);
@@ -19,7 +20,7 @@ __global__ void __launch_bounds__(kBlockX * kBlockY) render_pass_kernel(PassPara
 cudaError_t launch_render_pass(const PassParams& params, unsigned long long* rays, cudaStream_t stream) {
   const dim3 block(kBlockX, kBlockY);
   const dim3 grid((unsigned(params.scene.camera.width) + kBlockX - 1) / kBlockX,
-                  (unsigned(params.scene.camera.height) + kBlockY - 1) / kBlockY);
+                  (unsigned(params.scene.camera.height) + kBlockY - 1) / kBlockY, params.threads_per_pixel);
   render_pass_kernel<<<grid, block, 0, stream>>>(params, rays);
   return cudaGetLastError();
 }

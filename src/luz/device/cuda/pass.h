@@ -11,6 +11,16 @@
 // holds num_samples (≤ kMaxSamplesPerPass) samples: with one sample per pass
 // the Film's sums are exactly the CPU's (for equal samples), its sums of
 // squares within one float rounding of each square.
+//
+// Threads per pixel. One thread per pixel leaves a large GPU mostly idle on
+// small frames (a 256² image is 65k threads; an H100 holds 270k), so a pass
+// may split each pixel's samples among T threads: thread t takes the
+// contiguous share [n·t/T, n·(t+1)/T) of the pass's n samples and writes its
+// own sums to slice t of the output (T slices of `pixels` entries each);
+// accumulate_pass adds the T slices in order. The samples are the same for
+// any T, only the float grouping of their sums differs, and T is a function
+// of the image size and the pass length (default_threads_per_pixel), so a
+// render's film stays deterministic.
 #pragma once
 
 #include <cstddef>
@@ -37,20 +47,23 @@ struct PassParams {
   IntegratorParams integrator;
   FilterKind filter = FilterKind::Box;
   uint32_t first_sample = 0, num_samples = 1;
+  uint32_t threads_per_pixel = 1;  // T: the output holds T slices of `pixels` entries
   PassOutput out;
 };
 
-// The pass for pixel (x, y), exactly render_cpu's per-pixel loop: Sampler
-// started at the pixel, set_sample per sample, the filter's 2D sample first,
-// then the camera ray and path_li. Returns the rays traced.
-LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t y) {
+// Thread t's share of pixel (x, y)'s pass, exactly render_cpu's per-pixel
+// loop: Sampler started at the pixel, set_sample per sample, the filter's 2D
+// sample first, then the camera ray and path_li. Returns the rays traced.
+LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t y, uint32_t t = 0) {
   const Camera& cam = p.scene.camera;
+  const uint32_t T = p.threads_per_pixel;
+  const uint32_t k0 = uint32_t(uint64_t(p.num_samples) * t / T), k1 = uint32_t(uint64_t(p.num_samples) * (t + 1) / T);
   Sampler sampler;
-  sampler.start(p.sampler, x, y, p.first_sample);
+  sampler.start(p.sampler, x, y, p.first_sample + k0);
   float s0 = 0.f, s1 = 0.f, s2 = 0.f, q0 = 0.f, q1 = 0.f, q2 = 0.f;
   uint32_t n = 0;
   uint64_t rays = 0;
-  for (uint32_t k = 0; k < p.num_samples; ++k) {
+  for (uint32_t k = k0; k < k1; ++k) {
     sampler.set_sample(p.first_sample + k);
     Vec2 off = sample_filter(p.filter, sampler.next_2d());
     Ray ray = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
@@ -65,7 +78,7 @@ LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t 
       ++n;
     }
   }
-  size_t i = size_t(y) * size_t(cam.width) + x;
+  size_t i = size_t(t) * size_t(cam.width) * size_t(cam.height) + size_t(y) * size_t(cam.width) + x;
   p.out.sum[3 * i] = s0;
   p.out.sum[3 * i + 1] = s1;
   p.out.sum[3 * i + 2] = s2;
@@ -76,18 +89,25 @@ LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t 
   return rays;
 }
 
-// Host: adds pixels [begin, end) of one pass (num_samples each) into the
-// Film. Returns the samples discarded there as non-finite.
+// Host: adds pixels [begin, end) of one pass (num_samples each, split over
+// `slices` threads per pixel) into the Film, slice by slice in order.
+// Returns the samples discarded there as non-finite.
 inline uint64_t accumulate_pass(Film& film, const float* sum, const float* sum_sq, const uint32_t* count,
-                                uint32_t num_samples, size_t begin, size_t end) {
+                                uint32_t num_samples, size_t begin, size_t end, uint32_t slices = 1) {
+  const size_t pixels = film.count.size();
   uint64_t discarded = 0;
   for (size_t i = begin; i < end; ++i) {
-    for (int k = 0; k < 3; ++k) {
-      film.sum[3 * i + k] += double(sum[3 * i + k]);
-      film.sum_sq[3 * i + k] += double(sum_sq[3 * i + k]);
+    uint32_t n = 0;
+    for (uint32_t t = 0; t < slices; ++t) {
+      const size_t j = t * pixels + i;
+      for (int k = 0; k < 3; ++k) {
+        film.sum[3 * i + k] += double(sum[3 * j + k]);
+        film.sum_sq[3 * i + k] += double(sum_sq[3 * j + k]);
+      }
+      n += count[j];
     }
-    film.count[i] += count[i];
-    discarded += num_samples - count[i];
+    film.count[i] += n;
+    discarded += num_samples - n;
   }
   return discarded;
 }
@@ -101,6 +121,16 @@ inline uint32_t default_samples_per_pass(uint64_t pixels, uint32_t spp) {
   if (k > kMaxSamplesPerPass) k = kMaxSamplesPerPass;
   if (k > spp) k = spp;
   return k < 1 ? 1 : uint32_t(k);
+}
+
+// Threads per pixel when the caller leaves it to us: enough threads per
+// launch (~2^19, twice what an H100 keeps resident) to fill a large GPU, never
+// more than the pass's samples. A function of the image size and pass length
+// alone, so a render's film is deterministic.
+inline uint32_t default_threads_per_pixel(uint64_t pixels, uint32_t num_samples) {
+  uint64_t t = pixels ? ((uint64_t(1) << 19) + pixels - 1) / pixels : 1;
+  if (t > num_samples) t = num_samples;
+  return t < 1 ? 1 : uint32_t(t);
 }
 
 }  // namespace luz

@@ -315,13 +315,19 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.emitter_pmf = up.upload(scene.emitter_pmf, "the emitter PMF");
   const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres);
 
-  const size_t slot_bytes = pixels * (6 * sizeof(float) + sizeof(uint32_t));
+  const uint32_t per_pass = options.samples_per_pass
+                                ? std::min(std::min(options.samples_per_pass, kMaxSamplesPerPass), desc.spp)
+                                : default_samples_per_pass(pixels, desc.spp);
+  const uint32_t threads = options.threads_per_pixel ? std::min(options.threads_per_pixel, per_pass)
+                                                     : default_threads_per_pixel(pixels, per_pass);
+  const size_t slices = pixels * threads;  // output entries: one slice of `pixels` per thread share
+  const size_t slot_bytes = slices * (6 * sizeof(float) + sizeof(uint32_t));
   Slot slots[2];
   for (Slot& s : slots) {
     s.device = DeviceBuffer(slot_bytes, "the film's pass buffers");
     s.host = PinnedBuffer(slot_bytes, "the film's pass buffers");
-    s.dev_out = carve(s.device.get(), pixels);
-    s.host_out = carve(s.host.get(), pixels);
+    s.dev_out = carve(s.device.get(), slices);
+    s.host_out = carve(s.host.get(), slices);
   }
   DeviceBuffer rays_buf(sizeof(unsigned long long), "the ray counter");
   auto* rays = static_cast<unsigned long long*>(rays_buf.get());
@@ -338,9 +344,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   params.sampler = desc;
   params.integrator = rs.integrator;
   params.filter = rs.filter;
-  const uint32_t per_pass = options.samples_per_pass
-                                ? std::min(std::min(options.samples_per_pass, kMaxSamplesPerPass), desc.spp)
-                                : default_samples_per_pass(pixels, desc.spp);
+  params.threads_per_pixel = threads;
 
   std::atomic<uint64_t> discarded{0};
   // Waits for a slot's pass and adds it into the film (all cores).
@@ -353,7 +357,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
     uint64_t bad = tbb::parallel_reduce(
         tbb::blocked_range<size_t>(0, pixels, 4096), uint64_t(0),
         [&](const tbb::blocked_range<size_t>& r, uint64_t acc) {
-          return acc + accumulate_pass(film, o.sum, o.sum_sq, o.count, n, r.begin(), r.end());
+          return acc + accumulate_pass(film, o.sum, o.sum_sq, o.count, n, r.begin(), r.end(), threads);
         },
         [](uint64_t a, uint64_t b) { return a + b; });
     discarded += bad;
