@@ -29,6 +29,7 @@ namespace {
 struct RecordedRay {
   luz::Ray ray;
   bool shadow;
+  bool camera = false;  // the first ray of its path
 };
 
 // A Tracer that answers through Embree and keeps a copy of every query.
@@ -122,7 +123,9 @@ int main(int argc, char** argv) {
           luz::Vec2 off = luz::sample_filter(scene.settings.filter, sampler.next_2d());
           luz::Ray r = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
           uint64_t n = 0;
+          const size_t first = rays.size();
           luz::path_li(view, rec, r, sampler, scene.settings.integrator, n);
+          if (rays.size() > first) rays[first].camera = true;
         }
     size_t shadow = size_t(std::count_if(rays.begin(), rays.end(), [](const RecordedRay& r) { return r.shadow; }));
     tbb::task_arena arena(threads > 0 ? threads : tbb::task_arena::automatic);
@@ -203,6 +206,15 @@ int main(int argc, char** argv) {
       for (size_t i = 0; i < rays.size(); ++i) ray_list[i] = rays[i].ray, kinds[i] = rays[i].shadow ? 1 : 0;
       uint64_t ghits = 0;
       double gtrace = luz::trace_rays_cuda(scene, ray_list, kinds, std::max(repeat, 5), &ghits);
+      // The incoherent part alone: closest-hit rays after a BSDF sample (no
+      // camera rays, no shadow rays).
+      std::vector<luz::Ray> bounce;
+      for (const RecordedRay& r : rays)
+        if (!r.camera && !r.shadow) bounce.push_back(r.ray);
+      double gbounce = bounce.empty() ? 0.0
+                                      : luz::trace_rays_cuda(scene, bounce, std::vector<uint8_t>(bounce.size(), 0),
+                                                             std::max(repeat, 5), nullptr);
+      double gbounce_rps = gbounce > 0.0 ? bounce.size() / gbounce : 0.0;
       double gsps = gstats.samples / gstats.seconds, grps = gstats.rays / gstats.seconds;
       double gtrace_rps = rays.size() / gtrace;
       const std::string gpu = luz::cuda_device_name();
@@ -211,9 +223,12 @@ int main(int argc, char** argv) {
                   gsps * 1e-6, grps * 1e-6, gsps / sps);
       std::printf("gpu bvh      %.1f Mrays/s tracing the %zu recorded rays (%.0f%% shadow)\n", gtrace_rps * 1e-6,
                   rays.size(), 100.0 * shadow / rays.size());
-      std::printf("G| %s | %d×%d | %u | %.2f | %.1f | %.3f | %.1f | %.1f | %.2f | %.1f |\n", label.c_str(), cam.width,
-                  cam.height, scene.settings.spp, gsps * 1e-6, grps * 1e-6, sps * 1e-6, gsps / sps, gtrace_rps * 1e-6,
-                  prims / build1 * 1e-6, double(bvh.bytes()) / std::max(prims, 1.0));
+      std::printf("gpu bounce   %.1f Mrays/s tracing the %zu bounce rays alone (no camera or shadow rays)\n",
+                  gbounce_rps * 1e-6, bounce.size());
+      std::printf("G| %s | %d×%d | %u | %.2f | %.1f | %.3f | %.1f | %.1f | %.1f | %.2f | %.1f |\n", label.c_str(),
+                  cam.width, cam.height, scene.settings.spp, gsps * 1e-6, grps * 1e-6, sps * 1e-6, gsps / sps,
+                  gtrace_rps * 1e-6, gbounce_rps * 1e-6, prims / build1 * 1e-6,
+                  double(bvh.bytes()) / std::max(prims, 1.0));
     }
     return 0;
   } catch (const luz::CudaError& e) {

@@ -234,6 +234,12 @@ std::vector<BatchCase> batch_cases() {
       {"blend diffuse / ggx conductor", Bsdf::make_blend(Bsdf::make_diffuse({.8f, .8f, .8f}),
                                                          Bsdf::make_rough_conductor(G, .25f, .25f, eta, k), .5f),
        false},
+      {"roughplastic ggx .2", Bsdf::make_rough_plastic(G, .2f, {.5f, .5f, .5f}), false},
+      {"ward-duer (.2,.1)", Bsdf::make_ward(WardVariant::WardDuer, {.3f, .3f, .3f}, {.6f, .6f, .6f}, .2f, .1f), false},
+      // A pair answers from below with its back BSDF: sampled from both sides.
+      {"twosided beckmann .3 conductor / diffuse", Bsdf::make_two_sided(Bsdf::make_rough_conductor(B, .3f, .3f, eta, k),
+                                                                        Bsdf::make_diffuse({.6f, .6f, .6f})),
+       true},
   };
 }
 const float kBatchIncidenceDeg[] = {10.f, 60.f, 85.f};
