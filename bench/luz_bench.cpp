@@ -55,6 +55,7 @@ int main(int argc, char** argv) {
   luz::Defines defines;
   int threads = 0, repeat = 3, spp = 0;
   std::string device = "cpu";
+  int gpu_tpp = 0;  // CudaRenderOptions::threads_per_pixel (0: the default)
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "-D" && i + 1 < argc) {
@@ -73,6 +74,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "luz_bench: --device must be cpu or cuda, not '%s'\n", device.c_str());
         return 2;
       }
+    } else if (a == "--gpu-threads-per-pixel" && i + 1 < argc) {
+      gpu_tpp = std::atoi(argv[++i]);
     } else if (a == "--label" && i + 1 < argc) {
       label = argv[++i];
     } else if (scene_path.empty()) {
@@ -83,7 +86,7 @@ int main(int argc, char** argv) {
     }
   }
   if (scene_path.empty()) {
-    std::fprintf(stderr, "usage: luz_bench SCENE [-D name=value]... [--threads N] [--repeat K] [--label L] [--device cpu|cuda]\n");
+    std::fprintf(stderr, "usage: luz_bench SCENE [-D name=value]... [--threads N] [--repeat K] [--label L] [--device cpu|cuda] [--gpu-threads-per-pixel T]\n");
     return 2;
   }
   std::string why;
@@ -198,7 +201,9 @@ int main(int argc, char** argv) {
       double gbest = 1e30;
       for (int k = 0; k < repeat; ++k) {
         luz::RenderStats s;
-        luz::render_cuda(scene, luz::CudaRenderOptions{}, s);
+        luz::CudaRenderOptions gopt;
+        gopt.threads_per_pixel = uint32_t(std::max(gpu_tpp, 0));
+        luz::render_cuda(scene, gopt, s);
         if (s.seconds < gbest) gbest = s.seconds, gstats = s;
       }
       std::vector<luz::Ray> ray_list(rays.size());

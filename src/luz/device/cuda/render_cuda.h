@@ -67,8 +67,9 @@ void sample_bsdf_cuda(const Bsdf& bsdf, Vec3 wo, uint64_t seed, uint32_t n, std:
                       std::vector<uint8_t>& ok);
 
 // Traces `rays` on the GPU through Luz's BVH of `scene` (shadow[i] != 0: an
-// occlusion query, else closest hit), `repeat` times. Returns the best time
-// of one launch over all rays (seconds, by CUDA events: upload and build
+// occlusion query, else closest hit), in `repeat` timed rounds of enough
+// back-to-back launches to trace ≥ 2^23 rays. Returns the best round's time
+// per launch over all rays (seconds, by CUDA events: upload and build
 // excluded) and, in *hits, how many rays hit / were occluded. Throws CudaError.
 double trace_rays_cuda(const Scene& scene, const std::vector<Ray>& rays, const std::vector<uint8_t>& shadow,
                        int repeat, uint64_t* hits);
