@@ -132,8 +132,8 @@ TEST_F(CliBsdfs, BadParameters) {
   expect_bad("<bsdf type=\"ward\">\n      <rgb name=\"diffuse_reflectance\" value=\"0.7\"/>\n"
              "      <rgb name=\"specular_reflectance\" value=\"0.7\"/>\n    </bsdf>",
              "<bsdf type=\"ward\"", "create energy");
-  expect_bad("<bsdf type=\"twosided\">\n      <bsdf type=\"dielectric\"/>\n    </bsdf>", "<bsdf type=\"twosided\"",
-             "twosided cannot wrap a material that transmits");
+  expect_bad("<bsdf type=\"twosided\">\n      <bsdf type=\"dielectric\"/>\n    </bsdf>", "<bsdf type=\"dielectric\"",
+             "twosided cannot wrap a material that transmits");  // the line of the nested dielectric
 }
 
 TEST_F(CliBsdfs, EveryPluginRenders) {

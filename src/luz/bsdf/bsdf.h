@@ -451,6 +451,9 @@ struct Bsdf : BsdfComponent {
   }
   // Mitsuba `twosided` with two nested BSDFs: `front` for wo.z > 0 (it may be
   // a blend), `back` for wo.z < 0 (one component), both reflection only.
+  // Both sides must be reflection-only (no dielectrics), as Mitsuba requires:
+  // the loader refuses the others; a transmissive side made here would send
+  // light into the side that the other BSDF answers.
   LUZ_INLINE static Bsdf make_two_sided(const Bsdf& front, const Bsdf& back) {
     Bsdf r = front;
     r.two_sided = true;
@@ -461,3 +464,5 @@ struct Bsdf : BsdfComponent {
 };
 
 }  // namespace luz
+
+#undef LUZ_BSDF_GENERAL

@@ -540,7 +540,7 @@ class MitsubaParser {
         // without a transmission component can be nested!"): dielectrics are
         // two-sided by nature.
         if (sides[i].has_transmission())
-          error(n, "twosided cannot wrap a material that transmits light (a dielectric)");
+          error(inner[i], "twosided cannot wrap a material that transmits light (a dielectric)");
       }
       if (inner.size() == 1) {
         sides[0].two_sided = true;
