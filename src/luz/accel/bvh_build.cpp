@@ -47,8 +47,9 @@ inline f4 max4(f4 a, f4 b) { return a > b ? a : b; }
 inline f4 splat(float x) { return f4{x, x, x, x}; }
 constexpr float kInf = kInfinity;
 
-// xyz of a vector, w cleared: a PrimRef's w lane holds its id's bits (a
-// denormal as a float, which must never reach arithmetic: slow on x86).
+// xyz of a vector, w cleared: a PrimRef's w lane holds its id's bits (as a
+// float, a denormal below 2^23, some normal number above: either way it must
+// never reach arithmetic).
 inline f4 xyz(f4 v) { return (f4)((i4)v & i4{-1, -1, -1, 0}); }
 
 // A box as two 4-wide vectors (the w lanes are ignored).
@@ -477,7 +478,7 @@ class Builder {
     size_t n = e - b;
     if (opt_.median_split || depth + int(std::bit_width(n - 1)) >= kBvhStackSize - 2)
       return unsplittable(b, e, side, cbox, may_leaf, s);
-    if (opt_.full_sweep && n > size_t(kSweepMax)) return full_sweep_split(b, e, side, box, cbox, may_leaf, s);
+    if (opt_.full_sweep && n > 2) return full_sweep_split(b, e, side, box, cbox, may_leaf, s);
     if (n == 2) return pair_split(b, side, box, may_leaf, s);
     if (n <= size_t(kSweepMax)) return sweep_split(b, e, side, box, cbox, may_leaf, s);
     // No more bins than primitives. (Fewer, n/4, measured a few % faster
@@ -631,8 +632,13 @@ Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options) {
           // A few ulps of slack for intersect_sphere's rounding near tangents.
           float m = max(fabsf(s.center.x), max(fabsf(s.center.y), fabsf(s.center.z))) + fabsf(s.radius);
           float r = fabsf(s.radius) + m * 0x1p-20f;
-          lo = s.center - Vec3{r, r, r};
-          hi = s.center + Vec3{r, r, r};
+          // Clamped to the finite range: a huge sphere's box would otherwise
+          // reach ±inf on both sides, its centroid NaN, and NaN makes the
+          // min/max reductions depend on how the work is split (the tree on
+          // the thread count). Nothing beyond FLT_MAX can be hit anyway.
+          const float big = 3.40282347e38f;
+          lo = vmax(s.center - Vec3{r, r, r}, Vec3{-big, -big, -big});
+          hi = vmin(s.center + Vec3{r, r, r}, Vec3{big, big, big});
           id = uint32_t(i - nt) | kBvhSphereBit;
         }
         PrimRef& p = rp[i];
