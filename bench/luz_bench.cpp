@@ -56,6 +56,7 @@ int main(int argc, char** argv) {
   int threads = 0, repeat = 3, spp = 0;
   std::string device = "cpu";
   int gpu_tpp = 0;  // CudaRenderOptions::threads_per_pixel (0: the default)
+  bool gpu_wavefront = false;  // CudaRenderOptions::wavefront
   for (int i = 1; i < argc; ++i) {
     std::string a = argv[i];
     if (a == "-D" && i + 1 < argc) {
@@ -74,6 +75,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "luz_bench: --device must be cpu or cuda, not '%s'\n", device.c_str());
         return 2;
       }
+    } else if (a == "--gpu-wavefront") {
+      gpu_wavefront = true;
     } else if (a == "--gpu-threads-per-pixel" && i + 1 < argc) {
       gpu_tpp = std::atoi(argv[++i]);
     } else if (a == "--label" && i + 1 < argc) {
@@ -86,7 +89,7 @@ int main(int argc, char** argv) {
     }
   }
   if (scene_path.empty()) {
-    std::fprintf(stderr, "usage: luz_bench SCENE [-D name=value]... [--threads N] [--repeat K] [--label L] [--device cpu|cuda] [--gpu-threads-per-pixel T]\n");
+    std::fprintf(stderr, "usage: luz_bench SCENE [-D name=value]... [--threads N] [--repeat K] [--label L] [--device cpu|cuda] [--gpu-threads-per-pixel T] [--gpu-wavefront]\n");
     return 2;
   }
   std::string why;
@@ -203,6 +206,7 @@ int main(int argc, char** argv) {
         luz::RenderStats s;
         luz::CudaRenderOptions gopt;
         gopt.threads_per_pixel = uint32_t(std::max(gpu_tpp, 0));
+        gopt.wavefront = gpu_wavefront;
         luz::render_cuda(scene, gopt, s);
         if (s.seconds < gbest) gbest = s.seconds, gstats = s;
       }

@@ -54,6 +54,7 @@
 #include "luz/device/cuda/batch.h"
 #include "luz/device/cuda/pass.h"
 #include "luz/device/cuda/render_cuda.h"
+#include "luz/device/cuda/wavefront.h"
 #include "luz/io/image.h"
 #include "luz/io/scene_loader.h"
 #include "stat_helpers.h"
@@ -440,6 +441,75 @@ TEST(CudaPassOnHost, ThreadsPerPixelChangeOnlyRounding) {
   EXPECT_NE(three.sum, one.sum) << "T = 3 grouped the sums exactly as T = 1: was the split ignored?";
 }
 
+// The wavefront pass's stages run on the host as render_cuda enqueues them:
+// generate, then intersect / shade / shadow over every path until none is
+// alive, then accumulate. Returns the film and, in *rays, the rays traced.
+Film wavefront_on_host(const Scene& scene, uint32_t per_pass, uint64_t* rays_out = nullptr) {
+  const SceneView view = scene.view();
+  const Bvh bvh = build_bvh(view);
+  const Camera& cam = view.camera;
+  const size_t pixels = size_t(cam.width) * cam.height;
+  const RenderSettings& rs = scene.settings;
+  WavefrontParams w;
+  w.pass.scene = view;
+  w.pass.tracer = make_bvh_tracer(bvh, view);
+  w.pass.sampler = make_sampler_desc(rs.sampler, rs.spp, rs.seed);
+  w.pass.integrator = rs.integrator;
+  w.pass.filter = rs.filter;
+  std::vector<float> sum(3 * pixels), sum_sq(3 * pixels);
+  std::vector<uint32_t> count(pixels);
+  w.pass.out = {sum.data(), sum_sq.data(), count.data()};
+  std::vector<PathState> state(pixels * per_pass);
+  std::vector<Sampler> samplers(pixels * per_pass);
+  std::vector<Hit> hits(pixels * per_pass);
+  std::vector<uint8_t> found(pixels * per_pass);
+  std::vector<ShadowQuery> shadow(pixels * per_pass);
+  w.state = state.data();
+  w.sampler = samplers.data();
+  w.hit = hits.data();
+  w.found = found.data();
+  w.shadow = shadow.data();
+  Film film(cam.width, cam.height);
+  uint64_t rays = 0;
+  for (uint32_t first = 0; first < w.pass.sampler.spp; first += per_pass) {
+    w.pass.first_sample = first;
+    w.pass.num_samples = std::min(per_pass, w.pass.sampler.spp - first);
+    w.num_paths = uint32_t(pixels * w.pass.num_samples);
+    for (uint32_t i = 0; i < w.num_paths; ++i) wf_generate(w, i);
+    for (;;) {
+      uint32_t alive = 0;
+      for (uint32_t i = 0; i < w.num_paths; ++i) rays += wf_intersect(w, i);
+      for (uint32_t i = 0; i < w.num_paths; ++i) alive += wf_shade(w, i) ? 1 : 0;
+      for (uint32_t i = 0; i < w.num_paths; ++i) rays += wf_shadow(w, i);
+      if (alive == 0) break;
+    }
+    for (uint32_t px = 0; px < pixels; ++px) wf_accumulate(w, px);
+    accumulate_pass(film, sum.data(), sum_sq.data(), count.data(), w.pass.num_samples, 0, pixels);
+  }
+  if (rays_out) *rays_out = rays;
+  return film;
+}
+
+// The wavefront's stages compute what the megakernel's pass computes: the
+// same path_vertex, random numbers and summation order, so on the host the
+// films agree exactly (one thread per pixel), with the same ray count. Glass
+// and rough plastic too (transmission, delta lobes, roulette with η²).
+TEST(CudaPassOnHost, WavefrontMatchesMegakernel) {
+  std::vector<Scene> scenes;
+  scenes.push_back(cornell(24, 10, 13));
+  scenes.push_back(material_scene("roughdielectric", 6, 14));
+  scenes.push_back(material_scene("roughplastic", 6, 15));
+  for (const Scene& s : scenes) {
+    RenderStats ms;
+    uint64_t wrays = 0;
+    Film mega = passes_on_host(s, 4, &ms, 1), wave = wavefront_on_host(s, 4, &wrays);
+    EXPECT_EQ(wave.count, mega.count);
+    EXPECT_EQ(wave.sum, mega.sum);
+    EXPECT_EQ(wave.sum_sq, mega.sum_sq);
+    EXPECT_EQ(wrays, ms.rays);
+  }
+}
+
 TEST(CudaPassOnHost, SpheresAndFlatShadingMatchCpu) {
   Scene s = cornell_with_sphere(64, 1, 12);
   expect_same_samples(passes_on_host(s, 1), cpu(s), 2e-3, "host passes vs CPU, sphere + flat shading, 1 spp");
@@ -514,6 +584,27 @@ TEST(CudaDevice, ThreadsPerPixelChangeOnlyRounding) {
   EXPECT_EQ(three.count, one.count);
   for (size_t i = 0; i < one.sum.size(); ++i)
     ASSERT_NEAR(three.sum[i], one.sum[i], 3 * 7 * 6e-8 * std::max(1.0, one.sum[i])) << i;
+}
+
+// The wavefront variant on the GPU: the megakernel's samples (same seed),
+// equal but for float rounding and the rare path it flips, on the Cornell box
+// and a glass scene; and the same number of rays within that rare share.
+TEST(CudaDevice, WavefrontMatchesMegakernel) {
+  REQUIRE_GPU();
+  std::vector<Scene> scenes;
+  scenes.push_back(cornell(96, 8, 21));
+  scenes.push_back(material_scene("roughdielectric", 8, 22));
+  for (const Scene& s : scenes) {
+    CudaRenderOptions opt;
+    opt.threads_per_pixel = 1;
+    RenderStats ms, ws;
+    Film mega = render_cuda(s, opt, ms);
+    opt.wavefront = true;
+    Film wave = render_cuda(s, opt, ws);
+    EXPECT_EQ(ws.discarded, 0u);
+    expect_same_samples(wave, mega, 1e-2, "GPU wavefront vs megakernel, same seed");
+    EXPECT_NEAR(double(ws.rays), double(ms.rays), 1e-2 * double(ms.rays));
+  }
 }
 
 TEST(CudaDevice, SpheresAndFlatShadingMatchCpu) {

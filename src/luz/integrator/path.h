@@ -60,23 +60,55 @@ struct IntegratorParams {
 inline constexpr uint32_t kCameraDims = 1;
 inline constexpr uint32_t kDimsPerVertex = 5;
 
-template <class Tracer>
-LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray ray, Sampler& sampler,
-                              const IntegratorParams& params, uint64_t& rays) {
+// What a path carries from one vertex to the next: all a wavefront keeps per
+// path between its kernels (device/cuda/wavefront.h), besides its Sampler.
+struct PathState {
+  Ray ray;                   // the ray to trace next
   Color L{}, beta{1.f, 1.f, 1.f};
+  float prev_pdf = 0.f;      // solid-angle pdf of the BSDF sample that made `ray`
+  bool prev_delta = false;   // that sample came from a delta lobe
+  float eta_acc = 1.f;       // product of BsdfSample::eta (Russian roulette)
+  Vec3 prev_p;               // where `ray` started
+  int depth = 1;             // the vertex `ray` will find
+  bool alive = true;
+};
+
+// The shadow ray of one vertex's next-event estimate; `contrib` joins L when
+// the segment is unoccluded (the OptiX any-hit query).
+struct ShadowQuery {
+  Ray ray;
+  Color contrib;
+  bool active = false;
+};
+
+LUZ_INLINE PathState path_start(const Ray& ray) {
+  PathState st;
+  st.ray = ray;
+  st.prev_p = ray.o;
+  return st;
+}
+
+// One vertex, after the closest-hit query of st.ray gave (found, hit):
+// emission (MIS-weighted), next-event estimation (its shadow ray left in sq),
+// BSDF sampling for the next ray, Russian roulette. st.alive turns false
+// when the path ends. The same code runs in path_li and in the wavefront's
+// shade kernel.
+LUZ_INLINE void path_vertex(const SceneView& scene, PathState& st, bool found, const Hit& hit, Sampler& sampler,
+                            const IntegratorParams& params, ShadowQuery& sq) {
+  sq.active = false;
   const bool use_nee = params.type != IntegratorType::Bsdf;
   const bool use_mis = params.type == IntegratorType::Path;
-  float prev_pdf = 0.f;       // solid-angle pdf of the BSDF sample that made `ray`
-  bool prev_delta = false;    // that sample came from a delta lobe
-  float eta_acc = 1.f;        // product of BsdfSample::eta (Russian roulette)
-  Vec3 prev_p = ray.o;
-
-  for (int depth = 1;; ++depth) {
+  const int depth = st.depth;
+  Ray& ray = st.ray;
+  Color& L = st.L;
+  Color& beta = st.beta;
+  float& prev_pdf = st.prev_pdf;
+  bool& prev_delta = st.prev_delta;
+  float& eta_acc = st.eta_acc;
+  Vec3& prev_p = st.prev_p;
+  {
     const uint32_t base_dim = kCameraDims + uint32_t(depth - 1) * kDimsPerVertex;
     sampler.dim = base_dim;
-    Hit hit;
-    ++rays;
-    bool found = tracer.intersect(ray, hit);
 
     // Emission reached by the previous BSDF sample (or seen by the camera).
     // Its weight: 1 for the camera ray, for the bsdf estimator and after a
@@ -107,8 +139,10 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
       }
       L += beta * Le * w;
     }
-    if (!found) break;
-    if (params.max_depth >= 0 && depth >= params.max_depth) break;
+    if (!found || (params.max_depth >= 0 && depth >= params.max_depth)) {
+      st.alive = false;
+      return;
+    }
 
     const Bsdf& bsdf = scene.materials[it.material];
     Frame frame = Frame::from_normal(it.ns);
@@ -149,13 +183,13 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
             shadow.d = d / dist;
             shadow.tmax = dist;  // both ends offset (Wächter–Binder): no shrink needed
           }
-          ++rays;
-          if (!tracer.occluded(shadow)) {
-            float pmf = scene.emitter_pmf[e];
-            float light_pdf = pmf * ls.pdf;
-            float w = use_mis ? power_heuristic(light_pdf, bsdf.pdf(wo, wi)) : 1.f;
-            L += beta * f * ls.radiance * (fabsf(wi.z) * w / light_pdf);
-          }
+          // Joins L if the segment is unoccluded (ShadowQuery).
+          float pmf = scene.emitter_pmf[e];
+          float light_pdf = pmf * ls.pdf;
+          float w = use_mis ? power_heuristic(light_pdf, bsdf.pdf(wo, wi)) : 1.f;
+          sq.ray = shadow;
+          sq.contrib = beta * f * ls.radiance * (fabsf(wi.z) * w / light_pdf);
+          sq.active = true;
         }
       }
     }
@@ -169,12 +203,18 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
       u_bsdf = sampler.next_1d();
     Vec2 u_bsdf2 = sampler.next_2d();
     BsdfSample bs = bsdf.sample(wo, u_bsdf, u_bsdf2);
-    if (!bs.valid) break;
+    if (!bs.valid) {
+      st.alive = false;
+      return;
+    }
     Vec3 wi_world = frame.to_world(bs.wi);
     // Reject continuations that cross the geometric surface the wrong way:
     // reflection stays on the viewer's side, transmission crosses.
     const float side = dot(wi_world, n_out);
-    if (bs.transmission ? !(side < 0.f) : !(side > 0.f)) break;
+    if (bs.transmission ? !(side < 0.f) : !(side > 0.f)) {
+      st.alive = false;
+      return;
+    }
     beta *= bs.weight;
     prev_pdf = bs.pdf;
     prev_delta = bs.delta;
@@ -185,14 +225,37 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
     if (depth >= params.rr_depth) {
       float u_rr = sampler.next_1d();
       float q = min(max_component(beta) * eta_acc * eta_acc, 0.95f);
-      if (!(u_rr < q)) break;
+      if (!(u_rr < q)) {
+        st.alive = false;
+        return;
+      }
       beta = beta / q;
     }
     ray.o = bs.transmission ? offset_ray_origin(it.p, -n_out) : origin;
     ray.d = wi_world;
     ray.tmax = kInfinity;
+    st.depth = depth + 1;
   }
-  return L;
+}
+
+// The path tracer: one path, vertex by vertex, each followed by its shadow
+// ray. Returns the radiance; `rays` counts every query.
+template <class Tracer>
+LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray ray, Sampler& sampler,
+                              const IntegratorParams& params, uint64_t& rays) {
+  PathState st = path_start(ray);
+  while (st.alive) {
+    Hit hit;
+    ++rays;
+    bool found = tracer.intersect(st.ray, hit);
+    ShadowQuery sq;
+    path_vertex(scene, st, found, hit, sampler, params, sq);
+    if (sq.active) {
+      ++rays;
+      if (!tracer.occluded(sq.ray)) st.L += sq.contrib;
+    }
+  }
+  return st.L;
 }
 
 }  // namespace luz

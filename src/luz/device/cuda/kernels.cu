@@ -49,6 +49,60 @@ cudaError_t launch_trace_rays(const RayBatchParams& params, cudaStream_t stream)
   return cudaGetLastError();
 }
 
+// The wavefront pass (wavefront.h): one kernel per stage.
+__global__ void wf_generate_kernel(WavefrontParams p) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < p.num_paths) wf_generate(p, i);
+}
+
+// Adds this warp's count to *total with one atomic (every lane takes part).
+__device__ void warp_add(unsigned long long n, unsigned long long* total) {
+  for (int offset = 16; offset > 0; offset /= 2) n += __shfl_down_sync(0xffffffffu, n, offset);
+  if ((threadIdx.x & 31u) == 0 && n != 0) atomicAdd(total, n);
+}
+
+__global__ void wf_intersect_kernel(WavefrontParams p, unsigned long long* rays) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  warp_add(i < p.num_paths ? wf_intersect(p, i) : 0u, rays);
+}
+
+__global__ void wf_shade_kernel(WavefrontParams p, unsigned long long* alive) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  warp_add((i < p.num_paths && wf_shade(p, i)) ? 1u : 0u, alive);
+}
+
+__global__ void wf_shadow_kernel(WavefrontParams p, unsigned long long* rays) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  warp_add(i < p.num_paths ? wf_shadow(p, i) : 0u, rays);
+}
+
+__global__ void wf_accumulate_kernel(WavefrontParams p, uint32_t pixels) {
+  const uint32_t i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i < pixels) wf_accumulate(p, i);
+}
+
+cudaError_t launch_wavefront_pass(const WavefrontParams& p, unsigned long long* rays, unsigned long long* alive_dev,
+                                  unsigned long long* alive_host, cudaStream_t stream) {
+  constexpr unsigned kBlock = 128;
+  const unsigned blocks = (p.num_paths + kBlock - 1) / kBlock;
+  const uint32_t pixels = uint32_t(p.pass.scene.camera.width) * uint32_t(p.pass.scene.camera.height);
+  if (p.num_paths == 0) return cudaSuccess;
+  wf_generate_kernel<<<blocks, kBlock, 0, stream>>>(p);
+  for (;;) {
+    cudaError_t e = cudaMemsetAsync(alive_dev, 0, sizeof *alive_dev, stream);
+    if (e != cudaSuccess) return e;
+    wf_intersect_kernel<<<blocks, kBlock, 0, stream>>>(p, rays);
+    wf_shade_kernel<<<blocks, kBlock, 0, stream>>>(p, alive_dev);
+    wf_shadow_kernel<<<blocks, kBlock, 0, stream>>>(p, rays);
+    if ((e = cudaMemcpyAsync(alive_host, alive_dev, sizeof *alive_host, cudaMemcpyDeviceToHost, stream)) != cudaSuccess)
+      return e;
+    if ((e = cudaStreamSynchronize(stream)) != cudaSuccess) return e;
+    if (*alive_host == 0) break;
+  }
+  wf_accumulate_kernel<<<(pixels + kBlock - 1) / kBlock, kBlock, 0, stream>>>(p, pixels);
+  return cudaGetLastError();
+}
+
 cudaError_t render_pass_attributes(cudaFuncAttributes* attributes) {
   return cudaFuncGetAttributes(attributes, render_pass_kernel);
 }

@@ -7,6 +7,7 @@
 
 #include "luz/device/cuda/batch.h"
 #include "luz/device/cuda/pass.h"
+#include "luz/device/cuda/wavefront.h"
 
 namespace luz::cuda {
 
@@ -19,6 +20,13 @@ cudaError_t launch_render_pass(const PassParams& params, unsigned long long* ray
 // (or cudaErrorInvalidDeviceFunction) when this build has no code for the
 // current device's architecture.
 cudaError_t render_pass_attributes(cudaFuncAttributes* attributes);
+
+// The wavefront variant of one pass (wavefront.h), its stages enqueued on
+// `stream` until no path is alive (each round reads the live count back into
+// the pinned *alive_host: the call returns with the pass enqueued up to its
+// accumulate kernel). `rays` gains the pass's ray count.
+cudaError_t launch_wavefront_pass(const WavefrontParams& params, unsigned long long* rays,
+                                  unsigned long long* alive_dev, unsigned long long* alive_host, cudaStream_t stream);
 
 // The batch queries of batch.h, one item per thread, enqueued on `stream`.
 cudaError_t launch_bsdf_samples(const BsdfBatchParams& params, cudaStream_t stream);

@@ -318,8 +318,9 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   const uint32_t per_pass = options.samples_per_pass
                                 ? std::min(std::min(options.samples_per_pass, kMaxSamplesPerPass), desc.spp)
                                 : default_samples_per_pass(pixels, desc.spp);
-  const uint32_t threads = options.threads_per_pixel ? std::min(options.threads_per_pixel, per_pass)
-                                                     : default_threads_per_pixel(pixels, per_pass);
+  const uint32_t threads = options.wavefront ? 1u  // the wavefront sums a pixel's samples in one thread
+                           : options.threads_per_pixel ? std::min(options.threads_per_pixel, per_pass)
+                                                       : default_threads_per_pixel(pixels, per_pass);
   const size_t slices = pixels * threads;  // output entries: one slice of `pixels` per thread share
   const size_t slot_bytes = slices * (6 * sizeof(float) + sizeof(uint32_t));
   Slot slots[2];
@@ -335,6 +336,14 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   // Pageable uploads may still be in flight when cudaMemcpy returns, and the
   // memset is asynchronous: all of it completes before the first pass.
   check(cudaDeviceSynchronize(), "uploading the scene to the GPU");
+  // The wavefront's path state, for a whole pass (pixels × samples per pass).
+  const size_t max_paths = options.wavefront ? pixels * per_pass : 0;
+  DeviceBuffer wf_state(max_paths * sizeof(PathState), "the wavefront's path states"),
+      wf_sampler(max_paths * sizeof(Sampler), "the wavefront's samplers"),
+      wf_hit(max_paths * sizeof(Hit), "the wavefront's hits"), wf_found(max_paths, "the wavefront's hit flags"),
+      wf_shadow(max_paths * sizeof(ShadowQuery), "the wavefront's shadow rays"),
+      wf_alive(sizeof(unsigned long long), "the wavefront's live-path counter");
+  PinnedBuffer wf_alive_host(sizeof(unsigned long long), "the wavefront's live-path counter");
   Stream stream;
   Event done[2];
 
@@ -377,8 +386,22 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
       params.first_sample = s.first_sample;
       params.num_samples = s.num_samples;
       params.out = s.dev_out;
-      check(cuda::launch_render_pass(params, rays, stream.get()),
-            "launching the render kernel (" + std::to_string(cam.width) + "x" + std::to_string(cam.height) + ")");
+      if (options.wavefront) {
+        WavefrontParams wp;
+        wp.pass = params;
+        wp.num_paths = uint32_t(pixels * s.num_samples);
+        wp.state = static_cast<PathState*>(wf_state.get());
+        wp.sampler = static_cast<Sampler*>(wf_sampler.get());
+        wp.hit = static_cast<Hit*>(wf_hit.get());
+        wp.found = static_cast<uint8_t*>(wf_found.get());
+        wp.shadow = static_cast<ShadowQuery*>(wf_shadow.get());
+        check(cuda::launch_wavefront_pass(wp, rays, static_cast<unsigned long long*>(wf_alive.get()),
+                                          static_cast<unsigned long long*>(wf_alive_host.get()), stream.get()),
+              "running the wavefront pass (" + std::to_string(cam.width) + "x" + std::to_string(cam.height) + ")");
+      } else {
+        check(cuda::launch_render_pass(params, rays, stream.get()),
+              "launching the render kernel (" + std::to_string(cam.width) + "x" + std::to_string(cam.height) + ")");
+      }
       check(cudaMemcpyAsync(s.host.get(), s.device.get(), slot_bytes, cudaMemcpyDeviceToHost, stream.get()),
             "cudaMemcpyAsync of a pass to the host");
       check(cudaEventRecord(done[k].get(), stream.get()), "cudaEventRecord");

@@ -41,6 +41,7 @@ struct CudaRenderOptions {
   bool progress = false;          // progress bar on stderr
   uint32_t samples_per_pass = 0;  // samples per pixel per launch; 0: chosen from the image size
   uint32_t threads_per_pixel = 0;  // threads sharing a pixel's pass; 0: chosen from the image size
+  bool wavefront = false;          // the wavefront variant (wavefront.h) instead of the megakernel
 };
 
 // Whether render_cuda can run: a driver new enough for this build's runtime,
