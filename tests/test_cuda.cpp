@@ -99,13 +99,8 @@ Film cpu(const Scene& s, RenderStats* stats_out = nullptr) {
   return f;
 }
 
-// render_cuda's pass loop, on the host: the same PassParams over host
-// pointers, render_pixel_pass for every pixel, accumulate_pass per pass.
-Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_out = nullptr, uint32_t threads = 1) {
-  const SceneView view = scene.view();
-  const Bvh bvh = build_bvh(view);
-  const Camera& cam = view.camera;
-  const size_t pixels = size_t(cam.width) * cam.height;
+// A pass's parameters over host pointers, as render_cuda fills them.
+PassParams host_pass_params(const Scene& scene, const SceneView& view, const Bvh& bvh) {
   const RenderSettings& rs = scene.settings;
   PassParams p;
   p.scene = view;
@@ -113,6 +108,17 @@ Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_ou
   p.sampler = make_sampler_desc(rs.sampler, rs.spp, rs.seed);
   p.integrator = rs.integrator;
   p.filter = rs.filter;
+  return p;
+}
+
+// render_cuda's pass loop, on the host: the same PassParams over host
+// pointers, render_pixel_pass for every pixel, accumulate_pass per pass.
+Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_out = nullptr, uint32_t threads = 1) {
+  const SceneView view = scene.view();
+  const Bvh bvh = build_bvh(view);
+  const Camera& cam = view.camera;
+  const size_t pixels = size_t(cam.width) * cam.height;
+  PassParams p = host_pass_params(scene, view, bvh);
   p.threads_per_pixel = threads;
   std::vector<float> sum(3 * pixels * threads), sum_sq(3 * pixels * threads);
   std::vector<uint32_t> count(pixels * threads);
@@ -449,13 +455,8 @@ Film wavefront_on_host(const Scene& scene, uint32_t per_pass, uint64_t* rays_out
   const Bvh bvh = build_bvh(view);
   const Camera& cam = view.camera;
   const size_t pixels = size_t(cam.width) * cam.height;
-  const RenderSettings& rs = scene.settings;
   WavefrontParams w;
-  w.pass.scene = view;
-  w.pass.tracer = make_bvh_tracer(bvh, view);
-  w.pass.sampler = make_sampler_desc(rs.sampler, rs.spp, rs.seed);
-  w.pass.integrator = rs.integrator;
-  w.pass.filter = rs.filter;
+  w.pass = host_pass_params(scene, view, bvh);
   std::vector<float> sum(3 * pixels), sum_sq(3 * pixels);
   std::vector<uint32_t> count(pixels);
   w.pass.out = {sum.data(), sum_sq.data(), count.data()};

@@ -51,6 +51,32 @@ struct PassParams {
   PassOutput out;
 };
 
+// One thread's float sums of its finite samples, and their count, written
+// to entry i of a pass output.
+struct PassSums {
+  float s0 = 0.f, s1 = 0.f, s2 = 0.f, q0 = 0.f, q1 = 0.f, q2 = 0.f;
+  uint32_t n = 0;
+  LUZ_INLINE void add(const Color& L) {
+    if (!is_finite(L)) return;
+    s0 += L.x;
+    s1 += L.y;
+    s2 += L.z;
+    q0 += L.x * L.x;
+    q1 += L.y * L.y;
+    q2 += L.z * L.z;
+    ++n;
+  }
+  LUZ_INLINE void write(const PassOutput& out, size_t i) const {
+    out.sum[3 * i] = s0;
+    out.sum[3 * i + 1] = s1;
+    out.sum[3 * i + 2] = s2;
+    out.sum_sq[3 * i] = q0;
+    out.sum_sq[3 * i + 1] = q1;
+    out.sum_sq[3 * i + 2] = q2;
+    out.count[i] = n;
+  }
+};
+
 // Thread t's share of pixel (x, y)'s pass, exactly render_cpu's per-pixel
 // loop: Sampler started at the pixel, set_sample per sample, the filter's 2D
 // sample first, then the camera ray and path_li. Returns the rays traced.
@@ -60,32 +86,15 @@ LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t 
   const uint32_t k0 = uint32_t(uint64_t(p.num_samples) * t / T), k1 = uint32_t(uint64_t(p.num_samples) * (t + 1) / T);
   Sampler sampler;
   sampler.start(p.sampler, x, y, p.first_sample + k0);
-  float s0 = 0.f, s1 = 0.f, s2 = 0.f, q0 = 0.f, q1 = 0.f, q2 = 0.f;
-  uint32_t n = 0;
+  PassSums sums;
   uint64_t rays = 0;
   for (uint32_t k = k0; k < k1; ++k) {
     sampler.set_sample(p.first_sample + k);
     Vec2 off = sample_filter(p.filter, sampler.next_2d());
     Ray ray = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
-    Color L = path_li(p.scene, p.tracer, ray, sampler, p.integrator, rays);
-    if (is_finite(L)) {
-      s0 += L.x;
-      s1 += L.y;
-      s2 += L.z;
-      q0 += L.x * L.x;
-      q1 += L.y * L.y;
-      q2 += L.z * L.z;
-      ++n;
-    }
+    sums.add(path_li(p.scene, p.tracer, ray, sampler, p.integrator, rays));
   }
-  size_t i = size_t(t) * size_t(cam.width) * size_t(cam.height) + size_t(y) * size_t(cam.width) + x;
-  p.out.sum[3 * i] = s0;
-  p.out.sum[3 * i + 1] = s1;
-  p.out.sum[3 * i + 2] = s2;
-  p.out.sum_sq[3 * i] = q0;
-  p.out.sum_sq[3 * i + 1] = q1;
-  p.out.sum_sq[3 * i + 2] = q2;
-  p.out.count[i] = n;
+  sums.write(p.out, size_t(t) * size_t(cam.width) * size_t(cam.height) + size_t(y) * size_t(cam.width) + x);
   return rays;
 }
 

@@ -77,27 +77,9 @@ LUZ_INLINE uint32_t wf_shadow(const WavefrontParams& p, uint32_t i) {
 LUZ_INLINE void wf_accumulate(const WavefrontParams& p, uint32_t pixel) {
   const Camera& cam = p.pass.scene.camera;
   const uint32_t pixels = uint32_t(cam.width) * uint32_t(cam.height);
-  float s0 = 0.f, s1 = 0.f, s2 = 0.f, q0 = 0.f, q1 = 0.f, q2 = 0.f;
-  uint32_t n = 0;
-  for (uint32_t k = 0; k < p.pass.num_samples; ++k) {
-    const Color L = p.state[size_t(k) * pixels + pixel].L;
-    if (is_finite(L)) {
-      s0 += L.x;
-      s1 += L.y;
-      s2 += L.z;
-      q0 += L.x * L.x;
-      q1 += L.y * L.y;
-      q2 += L.z * L.z;
-      ++n;
-    }
-  }
-  p.pass.out.sum[3 * size_t(pixel)] = s0;
-  p.pass.out.sum[3 * size_t(pixel) + 1] = s1;
-  p.pass.out.sum[3 * size_t(pixel) + 2] = s2;
-  p.pass.out.sum_sq[3 * size_t(pixel)] = q0;
-  p.pass.out.sum_sq[3 * size_t(pixel) + 1] = q1;
-  p.pass.out.sum_sq[3 * size_t(pixel) + 2] = q2;
-  p.pass.out.count[pixel] = n;
+  PassSums sums;
+  for (uint32_t k = 0; k < p.pass.num_samples; ++k) sums.add(p.state[size_t(k) * pixels + pixel].L);
+  sums.write(p.pass.out, pixel);
 }
 
 }  // namespace luz
