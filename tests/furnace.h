@@ -8,6 +8,9 @@
 #include <cmath>
 #include <vector>
 
+#include <gtest/gtest.h>
+
+#include "luz/device/cpu/render.h"
 #include "luz/film/film.h"
 #include "luz/scene/scene.h"
 #include "stat_helpers.h"
@@ -42,6 +45,16 @@ inline luz::Scene furnace_scene(const luz::Bsdf& material, luz::IntegratorType t
   s.settings.integrator.max_depth = -1;
   s.compile();
   return s;
+}
+
+// Renders on two threads; a furnace must not produce non-finite samples.
+inline luz::Film render(const luz::Scene& s) {
+  CpuRenderOptions opt;
+  opt.threads = 2;
+  RenderStats stats;
+  Film f = render_cpu(s, opt, stats);
+  EXPECT_EQ(stats.discarded, 0u) << "non-finite samples";
+  return f;
 }
 
 // cos θo at the sphere for film position (fx, fy), or -1 if the ray misses.

@@ -146,19 +146,29 @@ std::vector<TestRay> path_rays(const Scene& s, const EmbreeScene& embree, size_t
   return rays;
 }
 
+// Triangle tri of a scene in double precision: its vertices and its
+// (unnormalised) normal e1 × e2.
+struct TrianglePlane {
+  double p[3][3], n[3];
+  TrianglePlane(const Scene& s, uint32_t tri) {
+    for (int j = 0; j < 3; ++j)
+      for (int a = 0; a < 3; ++a) p[j][a] = s.positions[s.indices[3 * tri + j]][a];
+    double e1[3], e2[3];
+    for (int a = 0; a < 3; ++a) e1[a] = p[1][a] - p[0][a], e2[a] = p[2][a] - p[0][a];
+    n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+    n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+    n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+  }
+};
+
 // Distance (in the triangle's plane, double precision) from the ray's
 // crossing of the triangle's plane to the triangle's boundary, relative to
 // the triangle's size; negative inside. A ray within rounding of an edge has
 // a value near 0.
 double edge_distance(const Scene& s, uint32_t tri, const Ray& ray) {
-  double p[3][3];
-  for (int j = 0; j < 3; ++j)
-    for (int a = 0; a < 3; ++a) p[j][a] = s.positions[s.indices[3 * tri + j]][a];
-  double e1[3], e2[3], n[3];
-  for (int a = 0; a < 3; ++a) e1[a] = p[1][a] - p[0][a], e2[a] = p[2][a] - p[0][a];
-  n[0] = e1[1] * e2[2] - e1[2] * e2[1];
-  n[1] = e1[2] * e2[0] - e1[0] * e2[2];
-  n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+  const TrianglePlane tp(s, tri);
+  const auto& p = tp.p;
+  const auto& n = tp.n;
   double o[3] = {ray.o.x, ray.o.y, ray.o.z}, d[3] = {ray.d.x, ray.d.y, ray.d.z};
   double dn = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
   if (dn == 0) return 0;  // parallel: "on the boundary" for our purposes
@@ -184,14 +194,9 @@ double edge_distance(const Scene& s, uint32_t tri, const Ray& ray) {
 // to the magnitudes involved: near 0 when the origin lies on the plane, where
 // t is nothing but rounding error and any answer is as good as another.
 double plane_t_rel(const Scene& s, uint32_t tri, const Ray& ray) {
-  double p[3][3];
-  for (int j = 0; j < 3; ++j)
-    for (int a = 0; a < 3; ++a) p[j][a] = s.positions[s.indices[3 * tri + j]][a];
-  double e1[3], e2[3], n[3];
-  for (int a = 0; a < 3; ++a) e1[a] = p[1][a] - p[0][a], e2[a] = p[2][a] - p[0][a];
-  n[0] = e1[1] * e2[2] - e1[2] * e2[1];
-  n[1] = e1[2] * e2[0] - e1[0] * e2[2];
-  n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+  const TrianglePlane tp(s, tri);
+  const auto& p = tp.p;
+  const auto& n = tp.n;
   double dn = n[0] * ray.d.x + n[1] * ray.d.y + n[2] * ray.d.z;
   if (dn == 0) return 0;
   double t = ((p[0][0] - ray.o.x) * n[0] + (p[0][1] - ray.o.y) * n[1] + (p[0][2] - ray.o.z) * n[2]) / dn;

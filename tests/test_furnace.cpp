@@ -42,15 +42,6 @@ namespace {
 
 constexpr double kFamilyAlpha = 1e-3;
 
-Film render(const Scene& s) {
-  CpuRenderOptions opt;
-  opt.threads = 2;
-  RenderStats stats;
-  Film f = render_cpu(s, opt, stats);
-  EXPECT_EQ(stats.discarded, 0u) << "non-finite samples in a furnace";
-  return f;
-}
-
 // ---- Independent geometry: the pinhole mapping and the ray/unit-sphere hit, in double.
 
 // ---- Independent Phong albedo by quadrature.

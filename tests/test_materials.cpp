@@ -53,15 +53,6 @@ namespace {
 
 constexpr double kFamilyAlpha = 1e-3;
 
-Film render(const Scene& s) {
-  CpuRenderOptions opt;
-  opt.threads = 2;
-  RenderStats stats;
-  Film f = render_cpu(s, opt, stats);
-  EXPECT_EQ(stats.discarded, 0u) << "non-finite samples";
-  return f;
-}
-
 const char* name(IntegratorType t) {
   switch (t) {
     case IntegratorType::Bsdf: return "bsdf";

@@ -571,20 +571,13 @@ class MitsubaParser {
     Bsdf b;
     if (type == "diffuse") {
       b = Bsdf::make_diffuse(checked_reflectance(n, p, "reflectance", {0.5f, 0.5f, 0.5f}), false);
-    } else if (type == "phong") {
+    } else if (type == "phong" || type == "blinnphong") {  // the same parameters (Mitsuba 0.6's)
       Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
       Color ks = checked_reflectance(n, p, "specular_reflectance", {0.2f, 0.2f, 0.2f});
       double e = p.get_float("exponent", 30.0);
       if (!(e >= 0)) error(n, "exponent must be ≥ 0");
       check_sum(n, kd, ks);
-      b = Bsdf::make_phong(kd, ks, float(e), false);
-    } else if (type == "blinnphong") {
-      Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
-      Color ks = checked_reflectance(n, p, "specular_reflectance", {0.2f, 0.2f, 0.2f});
-      double e = p.get_float("exponent", 30.0);
-      if (!(e >= 0)) error(n, "exponent must be ≥ 0");
-      check_sum(n, kd, ks);
-      b = Bsdf::make_blinn_phong(kd, ks, float(e), false);
+      b = type == "phong" ? Bsdf::make_phong(kd, ks, float(e), false) : Bsdf::make_blinn_phong(kd, ks, float(e), false);
     } else if (type == "conductor" || type == "roughconductor") {
       Color eta, k;
       conductor_ior(n, p, eta, k);

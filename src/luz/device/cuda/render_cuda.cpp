@@ -342,8 +342,8 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
       wf_sampler(max_paths * sizeof(Sampler), "the wavefront's samplers"),
       wf_hit(max_paths * sizeof(Hit), "the wavefront's hits"), wf_found(max_paths, "the wavefront's hit flags"),
       wf_shadow(max_paths * sizeof(ShadowQuery), "the wavefront's shadow rays"),
-      wf_alive(sizeof(unsigned long long), "the wavefront's live-path counter");
-  PinnedBuffer wf_alive_host(sizeof(unsigned long long), "the wavefront's live-path counter");
+      wf_alive(options.wavefront ? sizeof(unsigned long long) : 0, "the wavefront's live-path counter");
+  PinnedBuffer wf_alive_host(options.wavefront ? sizeof(unsigned long long) : 0, "the wavefront's live-path counter");
   Stream stream;
   Event done[2];
 
