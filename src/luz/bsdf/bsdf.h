@@ -21,11 +21,7 @@
 // the CPU: inlined into the integrator, the dispatch over all models bloats
 // the path loop (measured: the Cornell box 4% slower once rough plastic joined
 // the switch, other models unchanged or faster). On the GPU it is inlined.
-#if defined(__CUDA_ARCH__)
-#define LUZ_BSDF_GENERAL LUZ_INLINE
-#else
-#define LUZ_BSDF_GENERAL LUZ_HOST_DEVICE __attribute__((noinline))
-#endif
+#define LUZ_BSDF_GENERAL LUZ_CPU_NOINLINE
 
 namespace luz {
 

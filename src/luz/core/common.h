@@ -11,6 +11,20 @@
 #endif
 
 #define LUZ_INLINE LUZ_HOST_DEVICE inline
+// For the few hot functions the CPU compiler would otherwise call out of line
+// (measured: SceneView::interaction inlined saves 2.4% of the instructions).
+#if defined(__CUDACC__)
+#define LUZ_FORCE_INLINE LUZ_HOST_DEVICE __forceinline__
+#else
+#define LUZ_FORCE_INLINE inline __attribute__((always_inline))
+#endif
+// Code paths the CPU's hot loops should call rather than inline (a rarely
+// chosen variant that would bloat them); inlined on the GPU.
+#if defined(__CUDA_ARCH__)
+#define LUZ_CPU_NOINLINE LUZ_INLINE
+#else
+#define LUZ_CPU_NOINLINE LUZ_HOST_DEVICE __attribute__((noinline))
+#endif
 
 namespace luz {
 

@@ -56,9 +56,10 @@ struct IntegratorParams {
 };
 
 // Sample dimensions: 0: pixel filter (2D). Then, per vertex, a fixed block so
-// that a dimension always means the same thing.
+// that a dimension always means the same thing: light choice and point (2D),
+// BSDF lobe (1D), BSDF direction (2D), Russian roulette (1D).
 inline constexpr uint32_t kCameraDims = 1;
-inline constexpr uint32_t kDimsPerVertex = 5;
+inline constexpr uint32_t kDimsPerVertex = 4;
 
 // What a path carries from one vertex to the next: all a wavefront keeps per
 // path between its kernels (device/cuda/wavefront.h), besides its Sampler.
@@ -93,7 +94,7 @@ LUZ_INLINE PathState path_start(const Ray& ray) {
 // BSDF sampling for the next ray, Russian roulette. st.alive turns false
 // when the path ends. The same code runs in path_li and in the wavefront's
 // shade kernel.
-LUZ_INLINE void path_vertex(const SceneView& scene, PathState& st, bool found, const Hit& hit, Sampler& sampler,
+LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool found, const Hit& hit, Sampler& sampler,
                             const IntegratorParams& params, ShadowQuery& sq) {
   sq.active = false;
   const bool use_nee = params.type != IntegratorType::Bsdf;
@@ -156,14 +157,10 @@ LUZ_INLINE void path_vertex(const SceneView& scene, PathState& st, bool found, c
 
     // Next-event estimation (not at delta-only vertices: f is 0 there).
     if (use_nee && scene.num_emitters > 0 && !bsdf.delta_only()) {
-      // With one emitter its selection number is not needed (nor drawn:
-      // dimensions are indexed, so skipping one changes no other number).
-      uint32_t e = 0;
-      if (scene.num_emitters > 1)
-        e = scene.select_emitter(sampler.next_1d());
-      else
-        sampler.dim += 1;
+      // One 2D draw: its first coordinate picks the emitter and is then
+      // reused for the point on it (sample reuse, as Mitsuba 3 does).
       Vec2 u_light2 = sampler.next_2d();
+      uint32_t e = scene.num_emitters > 1 ? scene.select_emitter_reuse(u_light2.x) : 0;
       LightSample ls = scene.sample_emitter(e, it.p, u_light2);
       if (ls.pdf > 0.f) {
         Vec3 wi = frame.to_local(ls.wi);
@@ -195,7 +192,7 @@ LUZ_INLINE void path_vertex(const SceneView& scene, PathState& st, bool found, c
     }
 
     // BSDF sampling (its dimensions are fixed whether or not NEE ran).
-    sampler.dim = base_dim + 2;
+    sampler.dim = base_dim + 1;
     float u_bsdf = 0.f;  // lobe choice: a plain Lambert BSDF has none, so skip its dimension
     if (bsdf.plain_diffuse())
       sampler.dim += 1;

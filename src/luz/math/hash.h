@@ -26,7 +26,9 @@ LUZ_INLINE uint64_t hash4(uint64_t a, uint64_t b, uint64_t c, uint64_t d) {
 
 // Uniform float in [0,1) from the top 24 bits.
 LUZ_INLINE float to_unit_float(uint64_t h) { return float(h >> 40) * 0x1p-24f; }
-LUZ_INLINE float to_unit_float32(uint32_t h) { return min(float(h) * 0x1p-32f, kOneMinusEpsilon); }
+// Uniform float in [0,1) from the top 24 bits of a 32-bit value (exact: no
+// rounding up to 1).
+LUZ_INLINE float to_unit_float32(uint32_t h) { return float(h >> 8) * 0x1p-24f; }
 
 #if !defined(__CUDA_ARCH__)
 namespace detail {
@@ -53,6 +55,19 @@ LUZ_INLINE uint32_t reverse_bits32(uint32_t v) {
   const uint8_t* t = detail::kByteReverse.v;
   return (uint32_t(t[v & 0xff]) << 24) | (uint32_t(t[(v >> 8) & 0xff]) << 16) | (uint32_t(t[(v >> 16) & 0xff]) << 8) |
          uint32_t(t[v >> 24]);
+#endif
+}
+
+// Reverses all 64 bits: two 32-bit reversals in one, (hi, lo) -> (rev lo, rev hi).
+LUZ_INLINE uint64_t reverse_bits64(uint64_t v) {
+#if defined(__CUDA_ARCH__)
+  return __brevll(v);
+#else
+  v = __builtin_bswap64(v);
+  v = ((v >> 4) & 0x0f0f0f0f0f0f0f0full) | ((v & 0x0f0f0f0f0f0f0f0full) << 4);
+  v = ((v >> 2) & 0x3333333333333333ull) | ((v & 0x3333333333333333ull) << 2);
+  v = ((v >> 1) & 0x5555555555555555ull) | ((v & 0x5555555555555555ull) << 1);
+  return v;
 #endif
 }
 

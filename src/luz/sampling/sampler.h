@@ -130,16 +130,43 @@ struct Sampler {
     return reverse_bits32(laine_karras_permutation(index_reversed, key));  // = owen_scramble(index, key)
   }
 
+  // The stratified sampler's draws (out of line on the CPU: its hashed
+  // permutation would bloat every call site of the Sobol and independent ones).
+  LUZ_CPU_NOINLINE float stratified_1d(uint32_t d) const {
+    uint32_t n = desc.spp, pass = index / n, i = index % n;
+    uint64_t key = hash_combine(dim_key(pixel_key, d, 0), pass);
+    uint32_t stratum = permute(i, n, uint32_t(key));
+    float jitter = to_unit_float(hash_combine(key, i + 1));
+    return min((stratum + jitter) / float(n), kOneMinusEpsilon);
+  }
+  LUZ_CPU_NOINLINE Vec2 stratified_2d(uint32_t d) const {
+    uint32_t n = desc.spp, pass = index / n, i = index % n;
+    uint64_t key = hash_combine(dim_key(pixel_key, d, 1), pass);
+    uint32_t stratum = permute(i, n, uint32_t(key));
+    uint32_t sx = stratum % desc.strata_x, sy = stratum / desc.strata_x;
+    uint64_t h = hash_combine(key, i + 1);
+    float jx = to_unit_float(h), jy = float(h & 0xffffffu) * 0x1p-24f;
+    return {min((sx + jx) / float(desc.strata_x), kOneMinusEpsilon),
+            min((sy + jy) / float(desc.strata_y), kOneMinusEpsilon)};
+  }
+
+  // A third 32-bit seed for a 2D draw's dimension 1: the key's two halves
+  // remixed by C. Wellons' "lowbias32" integer hash.
+  LUZ_INLINE static uint32_t third_seed(uint32_t lo, uint32_t hi) {
+    uint32_t k = lo ^ (hi * 0x9e3779b9u);
+    k ^= k >> 16;
+    k *= 0x7feb352du;
+    k ^= k >> 15;
+    k *= 0x846ca68bu;
+    k ^= k >> 16;
+    return k;
+  }
+
   LUZ_INLINE float next_1d() {
     uint32_t d = dim++;
     switch (desc.type) {
-      case SamplerType::Stratified: {
-        uint32_t n = desc.spp, pass = index / n, i = index % n;
-        uint64_t key = hash_combine(dim_key(pixel_key, d, 0), pass);
-        uint32_t stratum = permute(i, n, uint32_t(key));
-        float jitter = to_unit_float(hash_combine(key, i + 1));
-        return min((stratum + jitter) / float(n), kOneMinusEpsilon);
-      }
+      case SamplerType::Stratified:
+        return stratified_1d(d);
       case SamplerType::Sobol: {
         uint64_t key = dim_key(pixel_key, d, 0);
         uint32_t i = shuffle(uint32_t(key));
@@ -153,29 +180,17 @@ struct Sampler {
   LUZ_INLINE Vec2 next_2d() {
     uint32_t d = dim++;
     switch (desc.type) {
-      case SamplerType::Stratified: {
-        uint32_t n = desc.spp, pass = index / n, i = index % n;
-        uint64_t key = hash_combine(dim_key(pixel_key, d, 1), pass);
-        uint32_t stratum = permute(i, n, uint32_t(key));
-        uint32_t sx = stratum % desc.strata_x, sy = stratum / desc.strata_x;
-        uint64_t h = hash_combine(key, i + 1);
-        float jx = to_unit_float(h), jy = float(h & 0xffffffu) * 0x1p-24f;
-        return {min((sx + jx) / float(desc.strata_x), kOneMinusEpsilon),
-                min((sy + jy) / float(desc.strata_y), kOneMinusEpsilon)};
-      }
+      case SamplerType::Stratified:
+        return stratified_2d(d);
       case SamplerType::Sobol: {
         uint64_t key = dim_key(pixel_key, d, 1);
         uint32_t lo = uint32_t(key), hi = uint32_t(key >> 32);
         uint32_t i = shuffle(lo);
-        // A third 32-bit seed, for dimension 1: the two halves remixed by
-        // C. Wellons' "lowbias32" integer hash.
-        uint32_t k2 = lo ^ (hi * 0x9e3779b9u);
-        k2 ^= k2 >> 16;
-        k2 *= 0x7feb352du;
-        k2 ^= k2 >> 15;
-        k2 *= 0x846ca68bu;
-        k2 ^= k2 >> 16;
-        return {to_unit_float32(scrambled_sobol_dim0(i, hi)), to_unit_float32(scrambled_sobol_dim1(i, k2))};
+        // scrambled_sobol_dim0(i, hi) and scrambled_sobol_dim1(i, third_seed),
+        // their two bit reversals done as one 64-bit reversal.
+        uint64_t r = reverse_bits64(uint64_t(laine_karras_permutation(i, hi)) << 32 |
+                                    laine_karras_permutation(sobol_pascal(i), third_seed(lo, hi)));
+        return {float(uint32_t(r) >> 8) * 0x1p-24f, float(r >> 40) * 0x1p-24f};
       }
       default: {
         // One 64-bit hash, two 24-bit fractions from disjoint bits.

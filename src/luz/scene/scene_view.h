@@ -42,7 +42,7 @@ struct SceneView {
     p2 = positions[indices[3 * k + 2]];
   }
 
-  LUZ_INLINE Interaction interaction(const Ray& ray, const Hit& hit) const {
+  LUZ_FORCE_INLINE Interaction interaction(const Ray& ray, const Hit& hit) const {
     Interaction it;
     if (hit.kind == PrimKind::Triangle) {
       Vec3 p0, p1, p2;
@@ -95,6 +95,16 @@ struct SceneView {
         lo = mid + 1;
     }
     return lo;
+  }
+
+  // Sample reuse (as Mitsuba 3's DiscreteDistribution::sample_reuse): selects
+  // the emitter by u and rescales u to [0,1) within the chosen interval, so one
+  // 2D draw both picks the light and places the point on it.
+  LUZ_INLINE uint32_t select_emitter_reuse(float& u) const {
+    uint32_t e = select_emitter(u);
+    float lo = e > 0 ? emitter_cdf[e - 1] : 0.f, width = emitter_cdf[e] - lo;
+    u = width > 0.f ? min(max((u - lo) / width, 0.f), kOneMinusEpsilon) : 0.f;
+    return e;
   }
 
   // Samples a point on emitter e as seen from `ref`. pdf is per solid angle.
