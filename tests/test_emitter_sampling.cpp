@@ -5,6 +5,7 @@
 // that density at the sampled directions.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -372,5 +373,29 @@ TEST(EmitterSampling, BackFacesGiveNothing) {
     for (uint64_t i = 0; i < 1000; ++i)
       ASSERT_EQ(s->view.sample_emitter(0, {0.5f, 2.f, -0.1f}, chi2::rand2(32, i, 0)).pdf, 0.f)
           << "flipped sphere seen from outside";
+  }
+}
+
+// Emitter choice: select_emitter is the first k with u < cdf[k] (checked
+// against std::upper_bound, zero-power entries included: never chosen), and
+// select_emitter_reuse rescales u into [0,1) within the chosen interval.
+TEST(EmitterSampling, SelectionIsTheCdfInverse) {
+  for (std::vector<float> cdf : {std::vector<float>{1.f}, {0.5f, 1.f}, {0.f, 0.25f, 0.25f, 0.7f, 1.f},
+                                 {0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f, 1.f, 1.f}}) {
+    SceneView v;
+    v.emitter_cdf = cdf.data();
+    v.num_emitters = uint32_t(cdf.size());
+    for (int k = 0; k < 4096; ++k) {
+      float u = (k + 0.5f) / 4096.f;
+      uint32_t e = v.select_emitter(u);
+      EXPECT_EQ(e, uint32_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin())) << u;
+      float lo = e > 0 ? cdf[e - 1] : 0.f;
+      EXPECT_GT(cdf[e], lo) << "an empty interval was chosen";
+      float r = u;
+      EXPECT_EQ(v.select_emitter_reuse(r), e);
+      EXPECT_GE(r, 0.f);
+      EXPECT_LT(r, 1.f);
+      EXPECT_NEAR(r, (u - lo) / (cdf[e] - lo), 1e-6f);
+    }
   }
 }

@@ -15,8 +15,9 @@ struct Camera {
 
   // (fx, fy): continuous film position in pixels, (0,0) the top-left corner.
   LUZ_INLINE Ray generate_ray(float fx, float fy) const {
-    float sx = (1.f - 2.f * fx / float(width)) * tan_half_x;
-    float sy = (1.f - 2.f * fy / float(height)) * tan_half_y;
+    // fx · (2 / width): the division is the same for every ray, so it leaves the per-sample loop.
+    float sx = (1.f - fx * (2.f / float(width))) * tan_half_x;
+    float sy = (1.f - fy * (2.f / float(height))) * tan_half_y;
     Ray r;
     r.o = origin;
     r.d = normalize(x_axis * sx + y_axis * sy + z_axis);

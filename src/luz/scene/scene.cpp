@@ -77,8 +77,15 @@ void Scene::compile() {
   bounds_max = hi;
   float radius = std::max(0.5f * length(hi - lo), 1e-3f);
 
-  // Emitter selection in proportion to power: π · area · mean radiance.
+  // Unit geometric normals, by the formula SceneView::interaction uses when
+  // it has none (so both give the same bits).
+  tri_normals.clear();
   SceneView v = view();
+  tri_normals.resize(num_triangles());
+  for (uint32_t k = 0; k < num_triangles(); ++k) tri_normals[k] = v.triangle_normal(k);
+
+  // Emitter selection in proportion to power: π · area · mean radiance.
+  v = view();
   environment = -1;
   std::vector<double> power(emitters.size());
   for (size_t e = 0; e < emitters.size(); ++e) {
@@ -132,6 +139,7 @@ SceneView Scene::view() const {
   v.indices = indices.data();
   v.tri_material = tri_material.data();
   v.tri_emitter = tri_emitter.data();
+  v.tri_normals = tri_normals.size() == num_triangles() && !tri_normals.empty() ? tri_normals.data() : nullptr;
   v.num_triangles = num_triangles();
   v.spheres = spheres.data();
   v.num_spheres = uint32_t(spheres.size());

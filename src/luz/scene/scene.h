@@ -34,6 +34,7 @@ struct Scene {
 
   // Filled by compile().
   std::vector<float> emitter_cdf, emitter_pmf;
+  std::vector<Vec3> tri_normals;  // unit geometric normal per triangle (the CPU's SceneView)
   int32_t environment = -1;
   Vec3 bounds_min{}, bounds_max{};
 

@@ -308,6 +308,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.indices = up.upload(scene.indices, "triangle indices");
   dev.tri_material = up.upload(scene.tri_material, "triangle materials");
   dev.tri_emitter = up.upload(scene.tri_emitter, "triangle emitters");
+  dev.tri_normals = nullptr;  // the GPU computes each hit's normal (not measured there with a table yet)
   dev.spheres = up.upload(scene.spheres, "spheres");
   dev.materials = up.upload(scene.materials, "materials");
   dev.emitters = up.upload(scene.emitters, "emitters");
