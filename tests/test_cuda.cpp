@@ -104,6 +104,7 @@ PassParams host_pass_params(const Scene& scene, const SceneView& view, const Bvh
   const RenderSettings& rs = scene.settings;
   PassParams p;
   p.scene = view;
+  p.scene.tri_normals = nullptr;  // as render_cuda: the GPU computes each hit's normal
   p.tracer = make_bvh_tracer(bvh, view);
   p.sampler = make_sampler_desc(rs.sampler, rs.spp, rs.seed);
   p.integrator = rs.integrator;

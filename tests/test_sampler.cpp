@@ -99,3 +99,30 @@ TEST(Sampler, Sobol2DEqualsPerDimensionDefinition) {
       EXPECT_EQ(w.y, to_unit_float32(scrambled_sobol_dim1(j, Sampler::third_seed(lo, hi))));
     }
 }
+
+// aux_1d(d): a second 1D stream at dimension d, a pure function that leaves
+// `dim` alone, independent of next_1d at d, and (Sobol, power-of-two spp) one
+// value per stratum like the regular draws.
+TEST(Sampler, AuxStreamIsSeparateAndStratified) {
+  for (SamplerType t : {SamplerType::Independent, SamplerType::Stratified, SamplerType::Sobol}) {
+    const uint32_t spp = 64;
+    SamplerDesc d = make_sampler_desc(t, spp, 5);
+    std::vector<int> strata(spp, 0);
+    int equal = 0;
+    for (uint32_t i = 0; i < spp; ++i) {
+      Sampler s;
+      s.start(d, 4, 9, i);
+      s.dim = 3;
+      float a = s.aux_1d(3);
+      EXPECT_EQ(s.dim, 3u);
+      EXPECT_EQ(a, s.aux_1d(3));
+      ASSERT_GE(a, 0.f);
+      ASSERT_LT(a, 1.f);
+      equal += a == s.next_1d();
+      strata[size_t(a * spp)]++;
+    }
+    EXPECT_LT(equal, 2) << "sampler " << int(t);
+    if (t != SamplerType::Independent)
+      for (int c : strata) EXPECT_EQ(c, 1) << "sampler " << int(t);
+  }
+}

@@ -60,6 +60,9 @@ struct IntegratorParams {
 // BSDF lobe (1D), BSDF direction (2D), Russian roulette (1D).
 inline constexpr uint32_t kCameraDims = 1;
 inline constexpr uint32_t kDimsPerVertex = 4;
+// Sample reuse for the emitter choice only when the chosen emitter's pmf
+// leaves its reused coordinate at least 2^16 distinct values.
+inline constexpr float kMinReusePmf = 1.f / 256.f;
 
 // What a path carries from one vertex to the next: all a wavefront keeps per
 // path between its kernels (device/cuda/wavefront.h), besides its Sampler.
@@ -158,9 +161,16 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     // Next-event estimation (not at delta-only vertices: f is 0 there).
     if (use_nee && scene.num_emitters > 0 && !bsdf.delta_only()) {
       // One 2D draw: its first coordinate picks the emitter and is then
-      // reused for the point on it (sample reuse, as Mitsuba 3 does).
+      // reused for the point on it (sample reuse, as Mitsuba 3 does). The
+      // reused coordinate keeps about 2^24 · pmf distinct values: for an
+      // emitter chosen with pmf < 2^-8 it would be too coarse (a bias from
+      // quantised points), so that case takes a fresh value instead.
       Vec2 u_light2 = sampler.next_2d();
-      uint32_t e = scene.num_emitters > 1 ? scene.select_emitter_reuse(u_light2.x) : 0;
+      uint32_t e = 0;
+      if (scene.num_emitters > 1) {
+        e = scene.select_emitter_reuse(u_light2.x);
+        if (scene.emitter_pmf[e] < kMinReusePmf) u_light2.x = sampler.aux_1d(base_dim);
+      }
       LightSample ls = scene.sample_emitter(e, it.p, u_light2);
       if (ls.pdf > 0.f) {
         Vec3 wi = frame.to_local(ls.wi);

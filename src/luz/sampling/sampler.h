@@ -118,7 +118,7 @@ struct Sampler {
 
   // One 64-bit hash per (base, dimension); 1D and 2D requests get distinct keys.
   LUZ_INLINE static uint64_t dim_key(uint64_t base, uint32_t d, uint64_t kind) {
-    return mix64(base + (uint64_t(d) * 2 + kind + 1) * 0x9e3779b97f4a7c15ull);
+    return mix64(base + (uint64_t(d) * 3 + kind + 1) * 0x9e3779b97f4a7c15ull);
   }
 
   // Padded Sobol (Burley 2020, §4): each dimension visits the sequence in its
@@ -132,9 +132,9 @@ struct Sampler {
 
   // The stratified sampler's draws (out of line on the CPU: its hashed
   // permutation would bloat every call site of the Sobol and independent ones).
-  LUZ_CPU_NOINLINE float stratified_1d(uint32_t d) const {
+  LUZ_CPU_NOINLINE float stratified_1d(uint32_t d, uint64_t kind = 0) const {
     uint32_t n = desc.spp, pass = index / n, i = index % n;
-    uint64_t key = hash_combine(dim_key(pixel_key, d, 0), pass);
+    uint64_t key = hash_combine(dim_key(pixel_key, d, kind), pass);
     uint32_t stratum = permute(i, n, uint32_t(key));
     float jitter = to_unit_float(hash_combine(key, i + 1));
     return min((stratum + jitter) / float(n), kOneMinusEpsilon);
@@ -162,20 +162,28 @@ struct Sampler {
     return k;
   }
 
-  LUZ_INLINE float next_1d() {
-    uint32_t d = dim++;
+  // A 1D value at dimension d; `kind` 0 for next_1d, 2 for aux_1d (1 is
+  // next_2d's): the same dimension's kinds are independent streams.
+  LUZ_INLINE float draw_1d(uint32_t d, uint64_t kind) const {
     switch (desc.type) {
       case SamplerType::Stratified:
-        return stratified_1d(d);
+        return stratified_1d(d, kind);
       case SamplerType::Sobol: {
-        uint64_t key = dim_key(pixel_key, d, 0);
+        uint64_t key = dim_key(pixel_key, d, kind);
         uint32_t i = shuffle(uint32_t(key));
         return to_unit_float32(scrambled_sobol_dim0(i, uint32_t(key >> 32)));
       }
       default:
-        return to_unit_float(dim_key(sample_key, d, 0));
+        return to_unit_float(dim_key(sample_key, d, kind));
     }
   }
+
+  LUZ_INLINE float next_1d() { return draw_1d(dim++, 0); }
+
+  // A second 1D stream at dimension d, beside that dimension's regular draw
+  // (for a value that a 2D draw's reuse cannot give precisely enough); does
+  // not advance `dim`.
+  LUZ_INLINE float aux_1d(uint32_t d) const { return draw_1d(d, 2); }
 
   LUZ_INLINE Vec2 next_2d() {
     uint32_t d = dim++;

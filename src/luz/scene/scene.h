@@ -47,7 +47,9 @@ struct Scene {
   void add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip);
   uint32_t add_material(const Bsdf& b);
 
-  // Bounds, emitter selection table; call after loading, before rendering.
+  // Bounds, emitter selection table, triangle normals; call after loading,
+  // before rendering, and again after any change to the geometry (view()
+  // trusts what compile() derived).
   void compile();
   SceneView view() const;
 };
