@@ -21,7 +21,7 @@ using chi2::D3;
 
 namespace {
 
-constexpr int kChi2Tests = 3 /* triangles */ + 3 /* spheres from outside */ + 2 /* from inside */;
+constexpr int kChi2Tests = 3 /* triangles */ + 3 /* spheres from outside */ + 2 /* from inside */ + 1 /* parallelogram */;
 const double kThreshold = chi2::sidak(chi2::kAlpha, kChi2Tests);
 constexpr uint64_t kSamples = 200000;
 // Relative agreement of the code's float pdfs with the double reference: a
@@ -112,6 +112,32 @@ struct SphereRef {
 
 Vec3 v3(D3 a) { return chi2::to_vec3(a); }
 
+// ---------------------------------------------------------------------------
+// A parallelogram light p0 + u e1 + v e2 as a mesh's two triangles (which
+// Scene::compile merges into one Parallelogram emitter): uniform over the
+// whole area, so the density toward w is t² / (cos θ_l · area of both).
+struct QuadRef {
+  TriangleRef t1, t2;
+  D3 n;
+  double area;
+  QuadRef(D3 p0, D3 e1, D3 e2)
+      : t1(p0, add(p0, e1), add(p0, e2)), t2(add(add(p0, e1), e2), add(p0, e2), add(p0, e1)) {
+    n = t1.n;
+    area = t1.area + t2.area;
+  }
+  std::optional<double> hit(D3 o, D3 w) const {
+    auto a = t1.hit(o, w);
+    return a ? a : t2.hit(o, w);
+  }
+  double pdf(D3 o, D3 w) const {
+    auto t = hit(o, w);
+    if (!t) return 0.0;
+    double cos_l = -chi2::dot(n, w);
+    if (cos_l <= 0.0) return 0.0;
+    return (*t) * (*t) / (cos_l * area);
+  }
+};
+
 struct EmitterScene {
   Scene scene;
   SceneView view;
@@ -163,7 +189,7 @@ void check_emitter(const SceneView& view, const Ref& light, D3 ref, const chi2::
         D3 p = add(ref, mul(wd, *t));
         it.p = v3(p);
         it.emitter = 0;
-        if constexpr (std::is_same_v<Ref, TriangleRef>) {
+        if constexpr (!std::is_same_v<Ref, SphereRef>) {
           it.ng = v3(light.n);
         } else {
           D3 n_out = mul(sub(p, light.c), 1.0 / light.r);
@@ -398,4 +424,40 @@ TEST(EmitterSampling, SelectionIsTheCdfInverse) {
       EXPECT_NEAR(r, (u - lo) / (cdf[e] - lo), 1e-6f);
     }
   }
+}
+
+// A quad light (two triangles of one mesh forming a parallelogram) is merged
+// into one Parallelogram emitter, sampled uniformly over its area: chi-square
+// against the density of the two triangles' union, computed independently.
+// A quad that is not a parallelogram stays two triangle emitters.
+TEST(EmitterSampling, ParallelogramChi2) {
+  const D3 p0{-1, -0.5, 2}, e1{1.8, 0.3, 0.4}, e2{0.5, 1.4, -0.2}, ref{0.2, 0.1, 0};
+  QuadRef q(p0, e1, e2);
+  if (chi2::dot(q.n, sub(ref, p0)) < 0.0) q = QuadRef(p0, e2, e1);
+  auto s = std::make_unique<EmitterScene>();
+  uint32_t m = s->scene.add_material(Bsdf::make_diffuse({.5f, .5f, .5f}));
+  Color e{1.f, 2.f, 3.f};
+  s->scene.add_mesh({v3(q.t1.p0), v3(q.t1.p1), v3(q.t1.p2), v3(q.t2.p0)}, {}, {0, 1, 2, 3, 2, 1}, m, &e);
+  s->scene.compile();
+  s->view = s->scene.view();
+  ASSERT_EQ(s->scene.emitters.size(), 1u);
+  EXPECT_EQ(s->scene.emitters[0].type, EmitterType::Parallelogram);
+  EXPECT_NEAR(s->scene.emitters[0].area, q.area, 1e-5 * q.area);
+  chi2::SphereGrid g;
+  g.quad_split = 8;
+  g.total_mass = 1.0;
+  D3 center = add(p0, mul(add(e1, e2), 0.5));
+  g.axis = chi2::normalized(sub(center, ref));
+  double a = 0.0;
+  for (D3 p : {q.t1.p0, q.t1.p1, q.t1.p2, q.t2.p0}) a = std::max(a, angle_between(g.axis, sub(p, ref)));
+  g.theta_max = a * 1.02;
+  check_emitter(s->view, q, ref, g, 11, "parallelogram (two triangles)");
+
+  // Move one corner: a trapezoid, not merged.
+  Scene t;
+  uint32_t mt = t.add_material(Bsdf::make_diffuse({.5f, .5f, .5f}));
+  t.add_mesh({v3(q.t1.p0), v3(q.t1.p1), v3(q.t1.p2), v3(add(q.t2.p0, mul(e1, 0.1)))}, {}, {0, 1, 2, 3, 2, 1}, mt, &e);
+  t.compile();
+  EXPECT_EQ(t.emitters.size(), 2u);
+  EXPECT_EQ(t.emitters[0].type, EmitterType::Triangle);
 }

@@ -182,7 +182,13 @@ TEST_F(Mitsuba, RectangleEmitsOnItsNormalSide) {
   const std::string emitter = "<emitter type=\"area\"><rgb name=\"radiance\" value=\"1, 2, 3\"/></emitter>\n";
   luz::Scene s = rectangle("", emitter);
   ASSERT_EQ(s.num_triangles(), 2u);
-  ASSERT_EQ(s.emitters.size(), 2u);
+  // Its two triangles are one parallelogram emitter (Scene::compile merges them).
+  ASSERT_EQ(s.emitters.size(), 1u);
+  EXPECT_EQ(s.emitters[0].type, luz::EmitterType::Parallelogram);
+  EXPECT_FLOAT_EQ(s.emitters[0].area, 4.f);
+  EXPECT_VEC_NEAR(s.emitters[0].normal, Vec3{0, 0, 1});
+  EXPECT_EQ(s.tri_emitter[0], 0);
+  EXPECT_EQ(s.tri_emitter[1], 0);
   for (const Vec3& p : s.positions) {
     EXPECT_EQ(std::fabs(p.x), 1.f);
     EXPECT_EQ(std::fabs(p.y), 1.f);
@@ -195,6 +201,8 @@ TEST_F(Mitsuba, RectangleEmitsOnItsNormalSide) {
   }
   // Rotated 90° about x: the normal +z becomes -y.
   s = rectangle("<rotate x=\"1\" angle=\"90\"/>\n", emitter);
+  ASSERT_EQ(s.emitters.size(), 1u);
+  EXPECT_VEC_NEAR(s.emitters[0].normal, Vec3{0, -1, 0});
   for (uint32_t t = 0; t < 2; ++t) {
     EXPECT_VEC_NEAR(geometric_normal(s, t), Vec3{0, -1, 0});
     EXPECT_EQ(emitted(s, t, {0, -1, 0}).z, 3.f);

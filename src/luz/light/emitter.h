@@ -7,7 +7,11 @@
 
 namespace luz {
 
-enum class EmitterType : uint32_t { Triangle, Sphere, Constant };
+// Parallelogram: two emitter triangles of one mesh that form a parallelogram
+// (a quad light: an OBJ quad, Mitsuba's rectangle), merged by Scene::compile
+// and sampled as one (a single 2D point, no square-root warp, no choice
+// between the halves).
+enum class EmitterType : uint32_t { Triangle, Sphere, Constant, Parallelogram };
 
 struct Emitter {
   EmitterType type = EmitterType::Triangle;
@@ -17,7 +21,8 @@ struct Emitter {
   // so that light sampling does not recompute them at every vertex.
   Vec3 normal;
   float area = 0.f;
-  Vec3 v0, v1, v2;  // the triangle's vertices, copied: no index look-ups when sampling
+  Vec3 v0, v1, v2;  // the triangle's vertices, copied: no index look-ups when sampling;
+                    // a parallelogram's corner v0 and its edges v1, v2 (points v0 + u v1 + v v2)
 };
 
 // A sampled point on an emitter as seen from a reference point.

@@ -1,5 +1,6 @@
 #include "luz/scene/scene.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace luz {
@@ -59,6 +60,83 @@ uint32_t Scene::add_material(const Bsdf& b) {
   return uint32_t(materials.size() - 1);
 }
 
+namespace {
+
+// If triangles a and b (vertex positions) share one edge and their other two
+// vertices mirror each other through its midpoint (to a few ulps), and face
+// the same way, fills q with the parallelogram they form: corner, two edges.
+bool parallelogram(const Vec3 a[3], const Vec3 b[3], Emitter& q) {
+  int shared_a[3] = {-1, -1, -1}, n_shared = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      if (a[i].x == b[j].x && a[i].y == b[j].y && a[i].z == b[j].z) {
+        shared_a[i] = j;
+        ++n_shared;
+      }
+  if (n_shared != 2) return false;
+  int ia = shared_a[0] < 0 ? 0 : shared_a[1] < 0 ? 1 : 2;  // a's vertex off the shared edge
+  int jb = 3 - shared_a[(ia + 1) % 3] - shared_a[(ia + 2) % 3];  // b's
+  const Vec3 d1 = a[ia], s1 = a[(ia + 1) % 3], s2 = a[(ia + 2) % 3], d2 = b[jb];
+  double scale = 0.0, gap = 0.0;
+  for (int k = 0; k < 3; ++k) {
+    scale = std::max({scale, std::fabs(double(d1[k])), std::fabs(double(d2[k])), std::fabs(double(s1[k])),
+                      std::fabs(double(s2[k]))});
+    gap = std::max(gap, std::fabs((double(d1[k]) + d2[k]) - (double(s1[k]) + s2[k])));
+  }
+  if (!(gap <= 4.0 * 0x1p-24 * scale)) return false;
+  Vec3 na = cross(a[1] - a[0], a[2] - a[0]), nb = cross(b[1] - b[0], b[2] - b[0]);
+  float la = length(na);
+  if (!(la > 0.f) || !(dot(na, nb) > 0.f)) return false;
+  q.type = EmitterType::Parallelogram;
+  q.v0 = d1;
+  q.v1 = s1 - d1;
+  q.v2 = s2 - d1;
+  q.normal = na / la;  // the emitting side, as the triangles had it
+  q.area = length(cross(q.v1, q.v2));
+  return q.area > 0.f;
+}
+
+}  // namespace
+
+// Consecutive emitter triangles (as the loaders add a quad's two halves) with
+// the same radiance that form a parallelogram become one Parallelogram
+// emitter; the triangles' tri_emitter entries then both name it.
+void Scene::merge_parallelogram_emitters() {
+  std::vector<int32_t> remap(emitters.size(), -1);
+  std::vector<Emitter> merged;
+  merged.reserve(emitters.size());
+  for (size_t e = 0; e < emitters.size(); ++e) {
+    const Emitter& a = emitters[e];
+    if (a.type == EmitterType::Triangle && e + 1 < emitters.size()) {
+      const Emitter& b = emitters[e + 1];
+      Emitter q;
+      Vec3 pa[3], pb[3];
+      if (b.type == EmitterType::Triangle && a.radiance.x == b.radiance.x && a.radiance.y == b.radiance.y &&
+          a.radiance.z == b.radiance.z) {
+        SceneView v = view();
+        v.triangle(a.prim, pa[0], pa[1], pa[2]);
+        v.triangle(b.prim, pb[0], pb[1], pb[2]);
+        if (parallelogram(pa, pb, q)) {
+          q.prim = a.prim;
+          q.radiance = a.radiance;
+          remap[e] = remap[e + 1] = int32_t(merged.size());
+          merged.push_back(q);
+          ++e;
+          continue;
+        }
+      }
+    }
+    remap[e] = int32_t(merged.size());
+    merged.push_back(a);
+  }
+  if (merged.size() == emitters.size()) return;
+  for (int32_t& t : tri_emitter)
+    if (t >= 0) t = remap[size_t(t)];
+  for (Sphere& s : spheres)
+    if (s.emitter >= 0) s.emitter = remap[size_t(s.emitter)];
+  emitters = std::move(merged);
+}
+
 void Scene::compile() {
   Vec3 lo{kInfinity, kInfinity, kInfinity}, hi = -lo;
   for (uint32_t k = 0; k < num_triangles(); ++k)
@@ -84,6 +162,8 @@ void Scene::compile() {
   tri_normals.resize(num_triangles());
   for (uint32_t k = 0; k < num_triangles(); ++k) tri_normals[k] = v.triangle_normal(k);
 
+  merge_parallelogram_emitters();
+
   // Emitter selection in proportion to power: π · area · mean radiance.
   v = view();
   environment = -1;
@@ -105,6 +185,7 @@ void Scene::compile() {
         area = emitters[e].area;
         break;
       }
+      case EmitterType::Parallelogram: area = em.area; break;  // set by merge_parallelogram_emitters
       case EmitterType::Sphere: area = 4.0 * M_PI * double(spheres[em.prim].radius) * spheres[em.prim].radius; break;
       case EmitterType::Constant:
         area = M_PI * double(radius) * radius;  // flux through the scene's bounding disk

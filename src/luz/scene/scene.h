@@ -52,6 +52,9 @@ struct Scene {
   // trusts what compile() derived).
   void compile();
   SceneView view() const;
+
+ private:
+  void merge_parallelogram_emitters();
 };
 
 }  // namespace luz

@@ -124,9 +124,14 @@ struct SceneView {
     LightSample ls;
     const Emitter& em = emitters[e];
     switch (em.type) {
-      case EmitterType::Triangle: {
-        Vec2 b = square_to_triangle_barycentrics(u);
-        ls.p = em.v0 * (1.f - b.x - b.y) + em.v1 * b.x + em.v2 * b.y;
+      case EmitterType::Triangle:
+      case EmitterType::Parallelogram: {
+        if (em.type == EmitterType::Triangle) {
+          Vec2 b = square_to_triangle_barycentrics(u);
+          ls.p = em.v0 * (1.f - b.x - b.y) + em.v1 * b.x + em.v2 * b.y;
+        } else {
+          ls.p = em.v0 + em.v1 * u.x + em.v2 * u.y;
+        }
         ls.n = em.normal;
         Vec3 d = ls.p - ref;
         float d2 = length_squared(d);
@@ -195,7 +200,8 @@ struct SceneView {
   LUZ_INLINE float emitter_pdf(uint32_t e, Vec3 ref, const Interaction& it, Vec3 wi, float dist) const {
     const Emitter& em = emitters[e];
     switch (em.type) {
-      case EmitterType::Triangle: {
+      case EmitterType::Triangle:
+      case EmitterType::Parallelogram: {
         float cos_l = -dot(it.ng, wi);
         if (cos_l <= 0.f || em.area <= 0.f) return 0.f;
         return dist * dist / (cos_l * em.area);
