@@ -1,5 +1,6 @@
 #include "luz/accel/embree_tracer.h"
 
+#include <algorithm>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -48,6 +49,25 @@ void sphere_occluded(const RTCOccludedFunctionNArguments* args) {
   if (t > r->tnear) r->tfar = -kInfinity;
 }
 
+float box_area(Vec3 lo, Vec3 hi) {
+  Vec3 d = hi - lo;
+  return 2.f * (d.x * d.y + d.y * d.z + d.z * d.x);
+}
+
+bool compact_pair(const Scene& scene, const uint32_t* a, const uint32_t* b) {
+  Vec3 lo[2], hi[2];
+  for (int h = 0; h < 2; ++h) {
+    const uint32_t* t = h == 0 ? a : b;
+    lo[h] = hi[h] = scene.positions[t[0]];
+    for (int j = 1; j < 3; ++j) {
+      lo[h] = vmin(lo[h], scene.positions[t[j]]);
+      hi[h] = vmax(hi[h], scene.positions[t[j]]);
+    }
+  }
+  float joint = box_area(vmin(lo[0], lo[1]), vmax(hi[0], hi[1]));
+  return joint <= 1.5f * std::max(box_area(lo[0], hi[0]), box_area(lo[1], hi[1]));
+}
+
 }  // namespace
 
 EmbreeScene::EmbreeScene(const Scene& scene) {
@@ -57,18 +77,67 @@ EmbreeScene::EmbreeScene(const Scene& scene) {
   rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
 
   size_t nv = scene.positions.size(), nt = scene.num_triangles();
-  if (nt > 0) {
-  RTCGeometry tri = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_TRIANGLE);
-  // Embree reads vertices with 16-byte loads: its own buffers are padded.
-  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(tri, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                        3 * sizeof(float), nv));
-  std::memcpy(v, scene.positions.data(), nv * 3 * sizeof(float));
-  auto* ix = static_cast<unsigned*>(rtcSetNewGeometryBuffer(tri, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                            3 * sizeof(unsigned), nt));
-  std::memcpy(ix, scene.indices.data(), nt * 3 * sizeof(unsigned));
-  rtcCommitGeometry(tri);
-  rtcAttachGeometryByID(scene_, tri, EmbreeTracer::kTriangleGeom);
-  rtcReleaseGeometry(tri);
+  // Every triangle goes into one Embree quad geometry (EmbreeQuad): pairs of
+  // consecutive triangles sharing an edge as quads, the others as degenerate ones.
+  std::vector<unsigned> quad_ix;
+  for (uint32_t k = 0; k < nt; ++k) {
+    const uint32_t* a = &scene.indices[3 * size_t(k)];
+    if (k + 1 < nt) {
+      const uint32_t* b = &scene.indices[3 * size_t(k) + 3];
+      int ia = -1, jb = -1, shared = 0;
+      for (int i = 0; i < 3; ++i) {
+        bool in_b = a[i] == b[0] || a[i] == b[1] || a[i] == b[2];
+        shared += in_b;
+        if (!in_b) ia = i;
+      }
+      for (int j = 0; j < 3; ++j)
+        if (b[j] != a[0] && b[j] != a[1] && b[j] != a[2]) jb = j;
+      // Exactly one shared edge, no repeated vertex in either triangle, and a
+      // compact pair: its joint box at most 1.5× the larger half's (by
+      // surface area), so that pairs which bend or form long strips stay
+      // separate (Sponza inside: as fast as with triangles only, within 3%;
+      // with every pair merged and the rest in a second, triangle geometry,
+      // 23% slower: Embree traverses one BVH per primitive type).
+      if (shared == 2 && ia >= 0 && jb >= 0 && a[0] != a[1] && a[1] != a[2] && a[0] != a[2] && b[0] != b[1] &&
+          b[1] != b[2] && b[0] != b[2] && compact_pair(scene, a, b)) {
+        const uint32_t quad[4] = {a[ia], a[(ia + 1) % 3], b[jb], a[(ia + 2) % 3]};
+        EmbreeQuad q;
+        q.tri = k;
+        for (int h = 0; h < 2; ++h) {
+          const uint32_t* t = h == 0 ? a : b;
+          for (int j = 0; j < 2; ++j)
+            for (uint8_t s = 0; s < 4; ++s)
+              if (quad[s] == t[j + 1]) q.slot[h][j] = s;
+        }
+        quads_.push_back(q);
+        quad_ix.insert(quad_ix.end(), quad, quad + 4);
+        ++k;
+        continue;
+      }
+    }
+    // A lone triangle: the degenerate quad (a0, a1, a2, a2), whose first half is
+    // the triangle (Embree builds one BVH per primitive type, so one type for all).
+    EmbreeQuad q;
+    q.tri = k;
+    q.slot[0][0] = 1;
+    q.slot[0][1] = 3;
+    q.slot[1][0] = q.slot[1][1] = 0;  // the degenerate half is never hit
+    quads_.push_back(q);
+    const uint32_t quad[4] = {a[0], a[1], a[2], a[2]};
+    quad_ix.insert(quad_ix.end(), quad, quad + 4);
+  }
+  if (!quad_ix.empty()) {
+    RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_QUAD);
+    // Embree reads vertices with 16-byte loads: its own buffers are padded.
+    auto* v = static_cast<float*>(
+        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
+    std::memcpy(v, scene.positions.data(), nv * 3 * sizeof(float));
+    auto* ix = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4,
+                                                              4 * sizeof(unsigned), quads_.size()));
+    std::memcpy(ix, quad_ix.data(), quad_ix.size() * sizeof(unsigned));
+    rtcCommitGeometry(g);
+    rtcAttachGeometryByID(scene_, g, EmbreeTracer::kQuadGeom);
+    rtcReleaseGeometry(g);
   }
 
   if (!scene.spheres.empty()) {
@@ -86,7 +155,7 @@ EmbreeScene::EmbreeScene(const Scene& scene) {
   if (rtcGetDeviceError(device_) != RTC_ERROR_NONE) throw std::runtime_error("Embree: scene build failed");
 }
 
-EmbreeTracer EmbreeScene::tracer() const { return EmbreeTracer{scene_}; }
+EmbreeTracer EmbreeScene::tracer() const { return EmbreeTracer{scene_, quads_.data()}; }
 
 EmbreeScene::~EmbreeScene() {
   if (scene_) rtcReleaseScene(scene_);
