@@ -857,3 +857,67 @@ TEST(Bvh, PathTracerOnBvhMatchesEmbree) {
 }
 
 }  // namespace
+
+// Embree traces triangles as quads (EmbreeQuad): Embree's (u, v) on a quad
+// maps back to Luz's triangle and its barycentrics. Directly: both halves of
+// a pair, and a lone triangle's degenerate quad also for u + v a rounding
+// above 1 (Embree's approximate reciprocal does that near the a1-a2 edge).
+// Through Embree: rays aimed at known points of a mesh with a pair, a pair
+// of opposite winding and a lone triangle hit the right triangle, and the
+// barycentrics rebuild the aimed point.
+TEST(EmbreeQuads, HitsMapBackToTriangles) {
+  EmbreeQuad pair;
+  pair.tri = 4;
+  pair.slot[0][0] = 1, pair.slot[0][1] = 3;  // triangle 4 = (v0, v1, v3)
+  pair.slot[1][0] = 3, pair.slot[1][1] = 1;  // triangle 5 = (v2, v3, v1)
+  Hit h;
+  EmbreeTracer::quad_hit(pair, 0.2f, 0.3f, h);
+  EXPECT_EQ(h.prim, 4u);
+  EXPECT_FLOAT_EQ(h.u, 0.2f);
+  EXPECT_FLOAT_EQ(h.v, 0.3f);
+  EmbreeTracer::quad_hit(pair, 0.9f, 0.6f, h);  // second half: w = (0, 1-v, u+v-1, 1-u)
+  EXPECT_EQ(h.prim, 5u);
+  EXPECT_FLOAT_EQ(h.u, 0.1f);
+  EXPECT_FLOAT_EQ(h.v, 0.4f);
+  EmbreeQuad lone;
+  lone.tri = 7;
+  lone.slot[0][0] = 1, lone.slot[0][1] = 3;
+  lone.slot[1][0] = lone.slot[1][1] = EmbreeQuad::kLone;
+  EmbreeTracer::quad_hit(lone, 0.6f, std::nextafter(0.4f, 1.f), h);
+  EXPECT_EQ(h.prim, 7u);
+  EXPECT_NEAR(h.u + h.v, 1.f, 1e-6f);
+
+  Scene s;
+  uint32_t m = s.add_material(Bsdf::make_diffuse({.5f, .5f, .5f}));
+  // A unit square as (0,1,2),(2,1,3); a second one at z = 1 with the shared
+  // edge in the same direction in both (inconsistent winding); a lone triangle.
+  s.add_mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}, {}, {0, 1, 2, 2, 1, 3}, m, nullptr);
+  s.add_mesh({{0, 0, 1}, {1, 0, 1}, {0, 1, 1}, {1, 1, 1}}, {}, {0, 1, 2, 1, 2, 3}, m, nullptr);
+  s.add_mesh({{0, 0, 2}, {1, 0, 2}, {0, 1, 2}}, {}, {0, 1, 2}, m, nullptr);
+  s.compile();
+  EmbreeScene es(s);
+  EmbreeTracer et = es.tracer();
+  const SceneView v = s.view();
+  uint64_t rng = 1;
+  auto uniform = [&] { return float((rng = rng * 6364136223846793005ull + 1442695040888963407ull) >> 40) * 0x1p-24f; };
+  int checked = 0;
+  for (int layer = 0; layer < 3; ++layer)
+    for (int k = 0; k < 2000; ++k) {
+      Vec3 target{0.02f + 0.96f * uniform(), 0.02f + 0.96f * uniform(), float(layer)};
+      if (layer == 2 && target.x + target.y > 0.98f) continue;
+      Ray r;
+      r.o = Vec3{0.5f, 0.5f, float(layer) - 0.5f};
+      r.d = normalize(target - r.o);
+      Hit hit;
+      ASSERT_TRUE(et.intersect(r, hit));
+      ASSERT_EQ(hit.kind, PrimKind::Triangle);
+      ASSERT_LT(hit.prim, s.num_triangles());
+      EXPECT_EQ(hit.prim / 2, uint32_t(layer)) << "layer " << layer;
+      Vec3 p0, p1, p2;
+      v.triangle(hit.prim, p0, p1, p2);
+      Vec3 p = p0 * (1.f - hit.u - hit.v) + p1 * hit.u + p2 * hit.v;
+      EXPECT_LT(length(p - target), 1e-5f) << "layer " << layer << " prim " << hit.prim;
+      ++checked;
+    }
+  EXPECT_GT(checked, 4500);
+}

@@ -461,3 +461,35 @@ TEST(EmitterSampling, ParallelogramChi2) {
   EXPECT_EQ(t.emitters.size(), 2u);
   EXPECT_EQ(t.emitters[0].type, EmitterType::Triangle);
 }
+
+// compile() after a change of geometry re-derives the merged light: undone,
+// then merged again from the triangles as they are now; a degenerate
+// neighbour (a repeated position) is never merged.
+TEST(EmitterSampling, ParallelogramFollowsGeometryChanges) {
+  Scene s;
+  uint32_t m = s.add_material(Bsdf::make_diffuse({.5f, .5f, .5f}));
+  Color e{1.f, 1.f, 1.f};
+  s.add_mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}, {}, {0, 1, 2, 3, 2, 1}, m, &e);
+  s.compile();
+  ASSERT_EQ(s.emitters.size(), 1u);
+  EXPECT_FLOAT_EQ(s.emitters[0].area, 1.f);
+  for (Vec3& p : s.positions) p = p * 2.f + Vec3{0, 0, 1};
+  s.compile();
+  ASSERT_EQ(s.emitters.size(), 1u);
+  EXPECT_EQ(s.emitters[0].type, EmitterType::Parallelogram);
+  EXPECT_FLOAT_EQ(s.emitters[0].area, 4.f);
+  EXPECT_FLOAT_EQ(s.emitters[0].v0.z, 1.f);
+  // Now not a parallelogram: two triangle emitters, each naming itself.
+  s.positions[3] = Vec3{3, 3, 1};
+  s.compile();
+  ASSERT_EQ(s.emitters.size(), 2u);
+  EXPECT_EQ(s.tri_emitter[0], 0);
+  EXPECT_EQ(s.tri_emitter[1], 1);
+  EXPECT_EQ(s.emitters[1].prim, 1u);
+  // A degenerate emitter triangle next to a proper one.
+  Scene d;
+  uint32_t md = d.add_material(Bsdf::make_diffuse({.5f, .5f, .5f}));
+  d.add_mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 0, 0}}, {}, {0, 1, 2, 1, 3, 2}, md, &e);
+  d.compile();
+  EXPECT_EQ(d.emitters.size(), 2u);
+}

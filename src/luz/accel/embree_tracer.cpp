@@ -121,7 +121,7 @@ EmbreeScene::EmbreeScene(const Scene& scene) {
     q.tri = k;
     q.slot[0][0] = 1;
     q.slot[0][1] = 3;
-    q.slot[1][0] = q.slot[1][1] = 0;  // the degenerate half is never hit
+    q.slot[1][0] = q.slot[1][1] = EmbreeQuad::kLone;
     quads_.push_back(q);
     const uint32_t quad[4] = {a[0], a[1], a[2], a[2]};
     quad_ix.insert(quad_ix.end(), quad, quad + 4);

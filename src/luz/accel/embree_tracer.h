@@ -20,6 +20,7 @@ struct EmbreeTracer;
 // raw Embree on the Cornell box's recorded rays 25 -> 37 Mrays/s. slot[h][j]:
 // the quad vertex that is vertex j+1 of triangle k+h (for its barycentrics).
 struct EmbreeQuad {
+  static constexpr uint8_t kLone = 0xff;  // slot[1][0] of a lone triangle's quad
   uint32_t tri;
   uint8_t slot[2][2];
 };
@@ -49,6 +50,14 @@ struct EmbreeTracer {
   // Embree's hit on a quad (u, v in the quad's parametrisation) as a hit on
   // one of its two triangles with that triangle's barycentrics.
   static void quad_hit(const EmbreeQuad& q, float u, float v, Hit& hit) {
+    if (q.slot[1][0] == EmbreeQuad::kLone) {
+      // (a0, a1, a2, a2): the first half is the triangle; should Embree report
+      // the degenerate half (the segment a1-a2), it is the same triangle's edge.
+      hit.prim = q.tri;
+      hit.u = u + v <= 1.f ? u : 1.f - v;
+      hit.v = v;
+      return;
+    }
     const bool first = u + v <= 1.f;
     float w[4];
     if (first) {

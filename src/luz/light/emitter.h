@@ -15,7 +15,8 @@ enum class EmitterType : uint32_t { Triangle, Sphere, Constant, Parallelogram };
 
 struct Emitter {
   EmitterType type = EmitterType::Triangle;
-  uint32_t prim = 0;  // triangle or sphere index
+  uint32_t prim = 0;   // triangle or sphere index (a parallelogram: its first triangle)
+  uint32_t prim2 = 0;  // a parallelogram's second triangle
   Color radiance;
   // Triangles: unit normal (the emitting side) and area, set by Scene::compile()
   // so that light sampling does not recompute them at every vertex.

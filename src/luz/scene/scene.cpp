@@ -66,10 +66,15 @@ namespace {
 // vertices mirror each other through its midpoint (to a few ulps), and face
 // the same way, fills q with the parallelogram they form: corner, two edges.
 bool parallelogram(const Vec3 a[3], const Vec3 b[3], Emitter& q) {
+  auto same = [](Vec3 p, Vec3 r) { return p.x == r.x && p.y == r.y && p.z == r.z; };
+  // A triangle with a repeated position is degenerate: never part of a quad
+  // (and the shared-vertex count below needs distinct positions).
+  for (const Vec3* t : {a, b})
+    if (same(t[0], t[1]) || same(t[1], t[2]) || same(t[0], t[2])) return false;
   int shared_a[3] = {-1, -1, -1}, n_shared = 0;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j)
-      if (a[i].x == b[j].x && a[i].y == b[j].y && a[i].z == b[j].z) {
+      if (same(a[i], b[j])) {
         shared_a[i] = j;
         ++n_shared;
       }
@@ -100,8 +105,40 @@ bool parallelogram(const Vec3 a[3], const Vec3 b[3], Emitter& q) {
 
 // Consecutive emitter triangles (as the loaders add a quad's two halves) with
 // the same radiance that form a parallelogram become one Parallelogram
-// emitter; the triangles' tri_emitter entries then both name it.
+// emitter; the triangles' tri_emitter entries then both name it. Earlier
+// merges are undone first, so a compile() after a change of geometry merges
+// what is a parallelogram now.
 void Scene::merge_parallelogram_emitters() {
+  std::vector<Emitter> split;
+  split.reserve(emitters.size());
+  std::vector<int32_t> back(emitters.size(), -1);  // old index -> new (spheres, environment)
+  for (size_t e = 0; e < emitters.size(); ++e) {
+    const Emitter& em = emitters[e];
+    back[e] = int32_t(split.size());
+    if (em.type != EmitterType::Parallelogram) {
+      split.push_back(em);
+      continue;
+    }
+    for (uint32_t t : {em.prim, em.prim2}) {
+      Emitter tri;
+      tri.type = EmitterType::Triangle;
+      tri.prim = t;
+      tri.radiance = em.radiance;
+      split.push_back(tri);
+    }
+  }
+  if (split.size() != emitters.size()) {
+    for (size_t t = 0; t < tri_emitter.size(); ++t) {
+      if (tri_emitter[t] < 0) continue;
+      const size_t old = size_t(tri_emitter[t]);
+      const bool second = emitters[old].type == EmitterType::Parallelogram && t == emitters[old].prim2;
+      tri_emitter[t] = back[old] + (second ? 1 : 0);
+    }
+    for (Sphere& sp : spheres)
+      if (sp.emitter >= 0) sp.emitter = back[size_t(sp.emitter)];
+    emitters = std::move(split);
+  }
+
   std::vector<int32_t> remap(emitters.size(), -1);
   std::vector<Emitter> merged;
   merged.reserve(emitters.size());
@@ -118,6 +155,7 @@ void Scene::merge_parallelogram_emitters() {
         v.triangle(b.prim, pb[0], pb[1], pb[2]);
         if (parallelogram(pa, pb, q)) {
           q.prim = a.prim;
+          q.prim2 = b.prim;
           q.radiance = a.radiance;
           remap[e] = remap[e + 1] = int32_t(merged.size());
           merged.push_back(q);
