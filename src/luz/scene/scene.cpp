@@ -109,69 +109,62 @@ bool parallelogram(const Vec3 a[3], const Vec3 b[3], Emitter& q) {
 // merges are undone first, so a compile() after a change of geometry merges
 // what is a parallelogram now.
 void Scene::merge_parallelogram_emitters() {
+  // 1. One emitter per emissive triangle again: split[back[e]] is emitter e,
+  // or a parallelogram's first triangle (its second follows).
   std::vector<Emitter> split;
   split.reserve(emitters.size());
-  std::vector<int32_t> back(emitters.size(), -1);  // old index -> new (spheres, environment)
+  std::vector<size_t> back(emitters.size());
   for (size_t e = 0; e < emitters.size(); ++e) {
     const Emitter& em = emitters[e];
-    back[e] = int32_t(split.size());
+    back[e] = split.size();
     if (em.type != EmitterType::Parallelogram) {
       split.push_back(em);
       continue;
     }
     for (uint32_t t : {em.prim, em.prim2}) {
       Emitter tri;
-      tri.type = EmitterType::Triangle;
       tri.prim = t;
       tri.radiance = em.radiance;
       split.push_back(tri);
     }
   }
-  if (split.size() != emitters.size()) {
-    for (size_t t = 0; t < tri_emitter.size(); ++t) {
-      if (tri_emitter[t] < 0) continue;
-      const size_t old = size_t(tri_emitter[t]);
-      const bool second = emitters[old].type == EmitterType::Parallelogram && t == emitters[old].prim2;
-      tri_emitter[t] = back[old] + (second ? 1 : 0);
-    }
-    for (Sphere& sp : spheres)
-      if (sp.emitter >= 0) sp.emitter = back[size_t(sp.emitter)];
-    emitters = std::move(split);
-  }
-
-  std::vector<int32_t> remap(emitters.size(), -1);
+  // 2. Merge: remap[k] is the new index of split[k].
+  const SceneView v = view();
+  std::vector<int32_t> remap(split.size());
   std::vector<Emitter> merged;
-  merged.reserve(emitters.size());
-  for (size_t e = 0; e < emitters.size(); ++e) {
-    const Emitter& a = emitters[e];
-    if (a.type == EmitterType::Triangle && e + 1 < emitters.size()) {
-      const Emitter& b = emitters[e + 1];
-      Emitter q;
+  merged.reserve(split.size());
+  for (size_t k = 0; k < split.size(); ++k) {
+    const Emitter& a = split[k];
+    remap[k] = int32_t(merged.size());
+    if (a.type == EmitterType::Triangle && k + 1 < split.size()) {
+      const Emitter& b = split[k + 1];
       Vec3 pa[3], pb[3];
+      Emitter q;
       if (b.type == EmitterType::Triangle && a.radiance.x == b.radiance.x && a.radiance.y == b.radiance.y &&
           a.radiance.z == b.radiance.z) {
-        SceneView v = view();
         v.triangle(a.prim, pa[0], pa[1], pa[2]);
         v.triangle(b.prim, pb[0], pb[1], pb[2]);
         if (parallelogram(pa, pb, q)) {
           q.prim = a.prim;
           q.prim2 = b.prim;
           q.radiance = a.radiance;
-          remap[e] = remap[e + 1] = int32_t(merged.size());
+          remap[++k] = int32_t(merged.size());
           merged.push_back(q);
-          ++e;
           continue;
         }
       }
     }
-    remap[e] = int32_t(merged.size());
     merged.push_back(a);
   }
-  if (merged.size() == emitters.size()) return;
-  for (int32_t& t : tri_emitter)
-    if (t >= 0) t = remap[size_t(t)];
-  for (Sphere& s : spheres)
-    if (s.emitter >= 0) s.emitter = remap[size_t(s.emitter)];
+  // 3. Triangles and spheres name their new emitters.
+  for (size_t t = 0; t < tri_emitter.size(); ++t) {
+    if (tri_emitter[t] < 0) continue;
+    const Emitter& old = emitters[size_t(tri_emitter[t])];
+    const bool second = old.type == EmitterType::Parallelogram && t == old.prim2;
+    tri_emitter[t] = remap[back[size_t(tri_emitter[t])] + (second ? 1 : 0)];
+  }
+  for (Sphere& sp : spheres)
+    if (sp.emitter >= 0) sp.emitter = remap[back[size_t(sp.emitter)]];
   emitters = std::move(merged);
 }
 
