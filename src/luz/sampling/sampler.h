@@ -185,8 +185,12 @@ struct Sampler {
   // not advance `dim`.
   LUZ_INLINE float aux_1d(uint32_t d) const { return draw_1d(d, 2); }
 
-  LUZ_INLINE Vec2 next_2d() {
-    uint32_t d = dim++;
+  LUZ_INLINE Vec2 next_2d() { return draw_2d(dim++); }
+
+  // The 2D point at dimension d, without touching `dim`: the integrator draws
+  // a vertex's numbers up front, so that their independent hash chains (a few
+  // dozen cycles of latency each) overlap instead of running one after another.
+  LUZ_INLINE Vec2 draw_2d(uint32_t d) const {
     switch (desc.type) {
       case SamplerType::Stratified:
         return stratified_2d(d);
