@@ -412,7 +412,7 @@ TEST_F(Mitsuba, FilmAndFilter) {
   EXPECT_EQ(s.settings.filter, luz::FilterKind::Gaussian);
   expect_error(scene("<shape type=\"sphere\"/>\n", "<film type=\"hdrfilm\">\n<rfilter type=\"mitchell\"/></film>\n"), 4,
                "unknown rfilter 'mitchell'");
-  expect_error(scene("<shape type=\"sphere\"/>\n", "<film type=\"ldrfilm\"/>\n"), 3, "unknown film 'ldrfilm'");
+  expect_error(scene("<shape type=\"sphere\"/>\n", "<film type=\"mfilm\"/>\n"), 3, "unknown film 'mfilm'");
   expect_error(scene("<shape type=\"sphere\"/>\n", "<film type=\"hdrfilm\"><integer name=\"width\" value=\"0\"/></film>\n"),
                3, "film size");
 }

@@ -218,8 +218,26 @@ struct Bsdf : BsdfComponent {
   bool blend = false;
   float blend_weight = 0.f;  // w: the share of `second`
   bool has_back = false;      // two_sided with a different BSDF behind
+  // A bitmap texture (SceneView::textures) giving the front component's
+  // diffuse reflectance at each hit, or -1. SceneView::material() resolves
+  // it into a copy with the value filled in (set_textured_reflectance), so
+  // the models themselves only ever see constants.
+  int32_t texture = -1;
   BsdfComponent second;
   BsdfComponent back;
+
+  // The models whose reflectance a texture may give (the loader refuses others).
+  LUZ_INLINE static bool texturable(BsdfType t) {
+    return t == BsdfType::Diffuse || t == BsdfType::SmoothPlastic || t == BsdfType::RoughPlastic;
+  }
+  LUZ_INLINE void set_textured_reflectance(Color c) {
+    switch (type) {
+      case BsdfType::Diffuse: diffuse.reflectance = c; break;
+      case BsdfType::SmoothPlastic: smooth_plastic.diffuse_reflectance = param(c); break;
+      case BsdfType::RoughPlastic: rough_plastic.diffuse_reflectance = param(c); break;
+      default: break;
+    }
+  }
 
   // wo is on the back side and a separate back BSDF serves it.
   LUZ_INLINE bool use_back(Vec3 wo) const { return has_back && wo.z < 0.f; }

@@ -17,8 +17,12 @@
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #define STB_IMAGE_WRITE_STATIC
 #include <stb/stb_image_write.h>
+#define STB_IMAGE_IMPLEMENTATION
+#define STB_IMAGE_STATIC
+#include <stb/stb_image.h>
 
 #include "luz/io/error.h"
+#include "luz/texture/texture.h"
 
 namespace luz {
 
@@ -152,6 +156,24 @@ Image read_pfm(const std::string& path) {
   for (long long y = h - 1; y >= 0; --y)
     in.read(reinterpret_cast<char*>(img.rgb.data() + size_t(y) * w * 3), std::streamsize(w) * 3 * sizeof(float));
   if (!in) throw InputError(path, 0, "truncated PFM");
+  return img;
+}
+
+Image8 read_image8(const std::string& path) {
+  std::string e = extension(path);
+  if (e != ".jpg" && e != ".jpeg" && e != ".png" && e != ".tga" && e != ".bmp")
+    throw InputError(path, 0, "unsupported bitmap format '" + e + "' (supported: .jpg, .png, .tga, .bmp)");
+  int w = 0, h = 0, channels = 0;
+  stbi_uc* px = stbi_load(path.c_str(), &w, &h, &channels, 4);
+  if (!px) throw InputError(path, 0, std::string("cannot read image: ") + stbi_failure_reason());
+  Image8 img;
+  img.width = w;
+  img.height = h;
+  img.rgba.resize(size_t(w) * size_t(h));
+  for (size_t k = 0; k < img.rgba.size(); ++k)
+    img.rgba[k] = pack_rgba8(px[4 * k], px[4 * k + 1], px[4 * k + 2], px[4 * k + 3]);
+  stbi_image_free(px);
+  if (img.rgba.empty()) throw InputError(path, 0, "image is empty");
   return img;
 }
 

@@ -4,6 +4,7 @@
 // final name.
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -14,7 +15,16 @@ struct Image {
   std::vector<float> rgb;  // interleaved, rows top to bottom
 };
 
+// An 8-bit image as packed RGBA texels (texture.h's pack_rgba8), rows top
+// to bottom: what bitmap textures are made of.
+struct Image8 {
+  int width = 0, height = 0;
+  std::vector<uint32_t> rgba;
+};
+
 bool is_supported_image_extension(const std::string& path);
+// JPEG, PNG, TGA or BMP through stb_image; throws InputError naming the path.
+Image8 read_image8(const std::string& path);
 // Throws InputError naming the path on failure.
 void write_image(const std::string& path, const Image& img);
 Image read_exr(const std::string& path);

@@ -1,14 +1,21 @@
 // Mitsuba 3 XML scenes. Supported: <default>/$name, ref/id, integrator
-// path|bsdf|light, sensor perspective, samplers, hdrfilm with box/tent/gaussian
-// rfilter, shapes obj/rectangle/cube/sphere, area and constant emitters, bsdfs
-// diffuse, phong, blinnphong (Luz's own), conductor, roughconductor,
-// dielectric, roughdielectric, thindielectric, plastic, roughplastic, ward (ward, ward-duer, balanced), blendbsdf, twosided (one or
-// two nested bsdfs). Anything else is an error naming file and line:
-// a renderer that silently ignores what it does not know renders the wrong image.
+// path|bsdf|light, sensor perspective, samplers, hdrfilm (and ldrfilm) with
+// box/tent/gaussian rfilter, shapes obj/rectangle/cube/sphere, area and
+// constant emitters, bsdfs diffuse, phong, blinnphong (Luz's own), conductor,
+// roughconductor, dielectric, roughdielectric, thindielectric, plastic,
+// roughplastic, ward (ward, ward-duer, balanced), blendbsdf, twosided (one or
+// two nested bsdfs), bitmap textures as the reflectance of diffuse, plastic
+// and roughplastic, and bumpmap (accepted with a warning: the bump is not
+// applied). Anything else is an error naming file and line: a renderer that
+// silently ignores what it does not know renders the wrong image.
+//
+// Scenes of Mitsuba 0.5/0.6 (version < 2.0) name parameters in camelCase:
+// they are renamed as Mitsuba 3's own upgrade does (camel_case_name below).
 #include <pugixml.hpp>
 
 #include <algorithm>
 #include <charconv>
+#include <cstdio>
 #include <cmath>
 #include <filesystem>
 #include <cstring>
@@ -20,6 +27,7 @@
 #include "luz/io/error.h"
 #include "luz/io/obj.h"
 #include "luz/io/scene_loader.h"
+#include "luz/io/image.h"
 #include "luz/math/transform.h"
 
 namespace luz {
@@ -53,6 +61,14 @@ class MitsubaParser {
     if (!res) throw InputError(path_, line_at(size_t(res.offset)), std::string("malformed XML: ") + res.description());
     pugi::xml_node root = doc_.child("scene");
     if (!root) error(doc_.document_element(), "root element must be <scene>");
+    if (pugi::xml_attribute v = root.attribute("version")) {
+      int major = 0;
+      const char* b = v.value();
+      auto r = std::from_chars(b, b + std::strlen(b), major);
+      if (r.ec != std::errc() || (*r.ptr != '.' && *r.ptr != '\0'))
+        error(root, "version '" + std::string(b) + "' is not a version number (as 3.0.0)");
+      legacy_names_ = major < 2;
+    }
     for (pugi::xml_node n = doc_.first_child(); n; n = n.next_sibling())
       if (n.type() == pugi::node_element && std::string(n.name()) != "scene")
         error(n, "unexpected top-level element <" + std::string(n.name()) + ">");
@@ -92,12 +108,7 @@ class MitsubaParser {
         parse_sensor(n);
         have_sensor = true;
       } else if (tag == "bsdf") {
-        std::string id = n.attribute("id").value();
-        uint32_t m = parse_bsdf(n);
-        if (!id.empty()) {
-          if (bsdfs_.count(id)) error(n, "duplicate id '" + id + "'");
-          bsdfs_[id] = m;
-        }
+        parse_bsdf(n);
       } else if (tag == "shape") parse_shape(n);
       else if (tag == "emitter") parse_environment(n);
       else error(n, "unsupported element <" + tag + ">");
@@ -116,6 +127,24 @@ class MitsubaParser {
   }
   int line(pugi::xml_node n) const { return line_at(size_t(n.offset_debug())); }
   [[noreturn]] void error(pugi::xml_node n, const std::string& msg) const { throw InputError(path_, line(n), msg); }
+
+  // Mitsuba 3's upgrade of a 0.5/0.6 name: an underscore between a lower-case
+  // letter or digit and the capital after it, then all lower case (toWorld ->
+  // to_world, sampleCount -> sample_count, intIOR -> int_ior).
+  static std::string camel_case_name(const std::string& name) {
+    std::string out;
+    for (size_t i = 0; i < name.size(); ++i) {
+      unsigned char c = (unsigned char)name[i], prev = i > 0 ? (unsigned char)name[i - 1] : 0;
+      if (std::isupper(c) && (std::islower(prev) || std::isdigit(prev))) out += '_';
+      out += char(std::tolower(c));
+    }
+    return out;
+  }
+  // A parameter's name as Luz knows it (Mitsuba 3's).
+  std::string param_name(pugi::xml_node n) const {
+    std::string name = attr(n, "name");
+    return legacy_names_ ? camel_case_name(name) : name;
+  }
 
   // Attribute with $parameter substitution.
   std::string attr(pugi::xml_node n, const char* name, bool required = true) const {
@@ -179,6 +208,10 @@ class MitsubaParser {
   }
 
   // ---- properties of one plugin element ----
+  // Elements that are named parameters of their parent (a nested <texture>
+  // is one too: Props hands it out by name like a value).
+  static inline const std::set<std::string> kPropertyTags = {
+      "integer", "float", "boolean", "string", "rgb", "spectrum", "point", "vector", "transform", "texture"};
   struct Props {
     const MitsubaParser* p;
     pugi::xml_node owner;
@@ -186,12 +219,10 @@ class MitsubaParser {
     std::set<std::string> used;
 
     Props(const MitsubaParser* parser, pugi::xml_node node) : p(parser), owner(node) {
-      static const std::set<std::string> kTypes = {"integer", "float",  "boolean", "string",   "rgb",
-                                                   "spectrum", "point", "vector",  "transform"};
       for (pugi::xml_node c : node.children()) {
         if (c.type() != pugi::node_element) continue;
-        if (!kTypes.count(c.name())) continue;
-        std::string name = p->attr(c, "name");
+        if (!kPropertyTags.count(c.name())) continue;
+        std::string name = p->param_name(c);
         if (by_name.count(name)) p->error(c, "parameter '" + name + "' given twice");
         by_name[name] = c;
       }
@@ -257,17 +288,15 @@ class MitsubaParser {
     void check_all_used() const {
       for (const auto& [name, node] : by_name)
         if (!used.count(name))
-          p->error(node, "unknown parameter '" + name + "' for <" + owner.name() + " type=\"" +
+          p->error(node, "unknown parameter '" + p->attr(node, "name") + "' for <" + owner.name() + " type=\"" +
                              p->attr(owner, "type", false) + "\">");
     }
   };
 
   // Nested plugin children (everything that is not a property).
   void check_children(pugi::xml_node n, std::initializer_list<const char*> allowed) const {
-    static const std::set<std::string> kProps = {"integer", "float",  "boolean", "string",   "rgb",
-                                                 "spectrum", "point", "vector",  "transform"};
     for (pugi::xml_node c : n.children()) {
-      if (c.type() != pugi::node_element || kProps.count(c.name())) continue;
+      if (c.type() != pugi::node_element || kPropertyTags.count(c.name())) continue;
       bool ok = false;
       for (const char* a : allowed) ok = ok || std::string(c.name()) == a;
       if (!ok) error(c, "<" + std::string(c.name()) + "> is not allowed inside <" + n.name() + ">");
@@ -279,6 +308,7 @@ class MitsubaParser {
     for (pugi::xml_node op : t.children()) {
       if (op.type() != pugi::node_element) continue;
       std::string k = op.name();
+      if (legacy_names_ && k == "lookAt") k = "lookat";  // Mitsuba 0.5's spelling
       Matrix4 step;
       if (k == "matrix") {
         std::vector<double> v = numbers(op, attr(op, "value"));
@@ -340,6 +370,10 @@ class MitsubaParser {
     if (ip.max_depth < -1 || ip.max_depth == 0) error(n, "max_depth must be -1 (unbounded) or ≥ 1");
     if (ip.rr_depth < 1) error(n, "rr_depth must be ≥ 1");
     if (p.get_bool("hide_emitters", false)) error(n, "hide_emitters is not supported");
+    // Mitsuba 0.5's strictNormals drops light whose geometric and shading
+    // sides disagree; Luz's path tracer always does (path.h: the geometric
+    // side test beside the shading frame's), so either value means that.
+    p.get_bool("strict_normals", false);
     p.check_all_used();
   }
 
@@ -407,7 +441,10 @@ class MitsubaParser {
 
   void parse_film(pugi::xml_node n, int& width, int& height) {
     std::string type = attr(n, "type");
-    if (type != "hdrfilm") error(n, "unknown film '" + type + "' (supported: hdrfilm)");
+    // ldrfilm differs from hdrfilm only in how the file is written (tone
+    // mapping, gamma, 8 bits), and Luz picks the output format from -o's
+    // extension: its formatting parameters are accepted and have no effect.
+    if (type != "hdrfilm" && type != "ldrfilm") error(n, "unknown film '" + type + "' (supported: hdrfilm, ldrfilm)");
     check_children(n, {"rfilter"});
     Props p(this, n);
     long w = p.get_int("width", 768), h = p.get_int("height", 576);
@@ -417,7 +454,8 @@ class MitsubaParser {
     p.get_string("file_format", "openexr");
     std::string pf = p.get_string("pixel_format", "rgb");
     if (pf != "rgb" && pf != "rgba") error(n, "pixel_format '" + pf + "' is not supported (rgb)");
-    p.get_string("component_format", "float16");
+    if (type == "hdrfilm") p.get_string("component_format", "float16");
+    if (type == "ldrfilm") p.get_float("gamma", -1.0);  // the PNG encoding's gamma (-1: sRGB)
     p.get_bool("banner", false);
     p.get_bool("high_quality_edges", false);
     p.check_all_used();
@@ -520,8 +558,24 @@ class MitsubaParser {
     return inner;
   }
 
-  Bsdf parse_bsdf_value(pugi::xml_node n) {
+  Bsdf parse_bsdf_element(pugi::xml_node n) {
     std::string type = attr(n, "type");
+    if (type == "bumpmap") {
+      // Not implemented: the nested bsdf is used as it is, and the scene's
+      // author is told so once per bumpmap.
+      check_children(n, {"bsdf", "ref"});
+      Props p(this, n);
+      pugi::xml_node map = p.get("map", {"texture"});
+      if (!map) error(n, "bumpmap needs a <texture name=\"map\">");
+      parse_bitmap(map, false);
+      p.check_all_used();
+      std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
+      if (inner.size() != 1) error(n, "bumpmap needs exactly one nested bsdf");
+      Bsdf b = nested_bsdf(inner[0]);
+      std::fprintf(stderr, "%s:%d: warning: bumpmap ignored: its nested bsdf is used without the bump\n",
+                   path_.c_str(), line(n));
+      return b;
+    }
     if (type == "twosided") {
       // Mitsuba 3: one nested bsdf for both sides, or two: the first for the
       // front, the second for the back.
@@ -548,6 +602,8 @@ class MitsubaParser {
       }
       if (sides[1].blend)
         error(inner[1], "a blendbsdf as the back side of a twosided is not supported (only as the front)");
+      if (sides[1].texture >= 0)
+        error(inner[1], "a textured bsdf as the back side of a twosided is not supported (only as the front)");
       return Bsdf::make_two_sided(sides[0], sides[1]);
     }
     if (type == "blendbsdf") {
@@ -560,6 +616,7 @@ class MitsubaParser {
       if (inner.size() != 2) error(n, "blendbsdf needs exactly two nested bsdfs");
       Bsdf a = nested_bsdf(inner[0]), b = nested_bsdf(inner[1]);
       if (a.blend || b.blend) error(n, "a blendbsdf inside a blendbsdf is not supported");
+      if (b.texture >= 0) error(inner[1], "a textured bsdf as the second bsdf of a blendbsdf is not supported");
       if (a.has_back || b.has_back)
         error(n, "a twosided with two different bsdfs inside a blendbsdf is not supported");
       if (a.two_sided != b.two_sided)
@@ -569,8 +626,11 @@ class MitsubaParser {
     check_children(n, {});
     Props p(this, n);
     Bsdf b;
+    int32_t texture = -1;  // a bitmap reflectance (diffuse, plastic, roughplastic)
     if (type == "diffuse") {
-      b = Bsdf::make_diffuse(checked_reflectance(n, p, "reflectance", {0.5f, 0.5f, 0.5f}), false);
+      Color rho;
+      texture = reflectance_or_texture(n, p, "reflectance", {0.5f, 0.5f, 0.5f}, rho);
+      b = Bsdf::make_diffuse(rho, false);
     } else if (type == "phong" || type == "blinnphong") {  // the same parameters (Mitsuba 0.6's)
       Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
       Color ks = checked_reflectance(n, p, "specular_reflectance", {0.2f, 0.2f, 0.2f});
@@ -581,6 +641,10 @@ class MitsubaParser {
     } else if (type == "conductor" || type == "roughconductor") {
       Color eta, k;
       conductor_ior(n, p, eta, k);
+      // Mitsuba 0.5's extEta: the exterior medium's index; eta and k are relative to it.
+      float ext_eta = ior(n, p, "ext_eta", "vacuum");
+      eta = eta / ext_eta;
+      k = k / ext_eta;
       Color spec = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
       if (type == "conductor") {
         b = Bsdf::make_smooth_conductor(eta, k, spec, false);
@@ -606,13 +670,15 @@ class MitsubaParser {
         b = Bsdf::make_rough_dielectric(d, au, av, int_ior, ext_ior, r, t);
       }
     } else if (type == "plastic") {
-      Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
+      Color kd;
+      texture = reflectance_or_texture(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f}, kd);
       Color ks = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
       float int_ior = ior(n, p, "int_ior", "polypropylene"), ext_ior = ior(n, p, "ext_ior", "air");
       bool nonlinear = p.get_bool("nonlinear", false);
       b = Bsdf::make_smooth_plastic(kd, ks, int_ior, ext_ior, false, nonlinear);
     } else if (type == "roughplastic") {
-      Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
+      Color kd;
+      texture = reflectance_or_texture(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f}, kd);
       Color ks = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
       float int_ior = ior(n, p, "int_ior", "polypropylene"), ext_ior = ior(n, p, "ext_ior", "air");
       bool nonlinear = p.get_bool("nonlinear", false);
@@ -638,12 +704,104 @@ class MitsubaParser {
     } else {
       error(n, "unknown bsdf '" + type +
                    "' (supported: diffuse, phong, blinnphong, conductor, roughconductor, dielectric, "
-                   "roughdielectric, thindielectric, plastic, roughplastic, ward, blendbsdf, twosided)");
+                   "roughdielectric, thindielectric, plastic, roughplastic, ward, blendbsdf, twosided, bumpmap)");
     }
     p.check_all_used();
+    b.texture = texture;
     return b;
   }
-  uint32_t parse_bsdf(pugi::xml_node n) { return scene_.add_material(parse_bsdf_value(n)); }
+
+  // A bsdf element as a value; one with an id becomes a material that <ref>s
+  // name, nested ones too (as in Mitsuba, where the staircase's bumpmap
+  // wraps the bsdf its shapes refer to).
+  Bsdf parse_bsdf_value(pugi::xml_node n) {
+    Bsdf b = parse_bsdf_element(n);
+    std::string id = n.attribute("id").value();
+    if (!id.empty()) {
+      if (bsdfs_.count(id)) error(n, "duplicate id '" + id + "'");
+      bsdfs_[id] = scene_.add_material(b);
+    }
+    return b;
+  }
+  uint32_t parse_bsdf(pugi::xml_node n) {
+    Bsdf b = parse_bsdf_value(n);
+    std::string id = n.attribute("id").value();
+    return id.empty() ? scene_.add_material(b) : bsdfs_[id];
+  }
+
+  // ---- textures ----
+  struct Bitmap {
+    int32_t index = -1;  // in scene_.textures; -1 when only checked
+    Color mean;          // the average linear colour
+  };
+  // A <texture type="bitmap">: filename (relative to the scene file),
+  // filter_type, wrap_mode, raw (Mitsuba 3) or gamma (Mitsuba 0.5), uscale,
+  // vscale, uoffset, voffset. With load = false the file is only checked to
+  // exist (a texture that is accepted but not used).
+  Bitmap parse_bitmap(pugi::xml_node t, bool load) {
+    std::string type = attr(t, "type");
+    if (type != "bitmap") error(t, "unknown texture '" + type + "' (supported: bitmap)");
+    check_children(t, {});
+    Props p(this, t);
+    std::string file = p.get_string("filename", "");
+    if (file.empty()) error(t, "bitmap texture needs a 'filename'");
+    TextureDesc desc;
+    // Luz has no MIP maps: trilinear (Mitsuba 0.5's choice for the staircase)
+    // is looked up bilinearly at the finest level. The two differ only where
+    // a texel is smaller than a pixel's footprint, and there the many samples
+    // per pixel average the texels that trilinear filtering would pre-average.
+    std::string filter = p.get_string("filter_type", "bilinear");
+    if (filter == "nearest") desc.filter = TextureFilter::Nearest;
+    else if (filter != "bilinear" && filter != "trilinear")
+      error(t, "unknown filter_type '" + filter + "' (supported: bilinear, trilinear, nearest)");
+    std::string wrap = p.get_string("wrap_mode", "repeat");
+    if (wrap != "repeat") error(t, "wrap_mode '" + wrap + "' is not supported (repeat)");
+    desc.srgb = !p.get_bool("raw", false);
+    double gamma = p.get_float("gamma", -1.0);
+    if (gamma == 1.0) desc.srgb = false;
+    else if (gamma != -1.0) error(t, "bitmap gamma must be -1 (sRGB) or 1 (linear)");
+    desc.scale = {float(p.get_float("uscale", 1.0)), float(p.get_float("vscale", 1.0))};
+    desc.shift = {float(p.get_float("uoffset", 0.0)), float(p.get_float("voffset", 0.0))};
+    p.check_all_used();
+    fs::path full = fs::path(path_).parent_path() / file;
+    std::error_code ec;
+    if (!fs::is_regular_file(full, ec))
+      error(t, "cannot open bitmap '" + full.string() +
+                   "': " + (fs::exists(full, ec) ? "not a regular file" : "no such file"));
+    Bitmap out;
+    if (!load) return out;
+    Image8 img;
+    try {
+      img = read_image8(full.string());
+    } catch (const InputError& e) {
+      error(t, e.what());
+    }
+    desc.width = uint32_t(img.width);
+    desc.height = uint32_t(img.height);
+    out.index = int32_t(scene_.add_texture(desc, img.rgba));
+    double sum[3] = {0, 0, 0};
+    const float* table = scene_.srgb_table.data();
+    for (uint32_t texel : img.rgba) {
+      Color c = texel_color(texel, desc.srgb, table);
+      for (int k = 0; k < 3; ++k) sum[k] += c[k];
+    }
+    for (int k = 0; k < 3; ++k) out.mean[k] = float(sum[k] / double(img.rgba.size()));
+    return out;
+  }
+  // A reflectance given as a colour or as a nested bitmap: the texture's
+  // index, with its mean colour in `value` (what the models' lobe sampling
+  // weights use, as Mitsuba's getAverage() does), or -1 with the colour
+  // (checked to lie in [0, 1]).
+  int32_t reflectance_or_texture(pugi::xml_node n, Props& p, const char* name, Color def, Color& value) {
+    auto it = p.by_name.find(name);
+    if (it != p.by_name.end() && std::string(it->second.name()) == "texture") {
+      Bitmap b = parse_bitmap(p.get(name, {"texture"}), true);
+      value = b.mean;
+      return b.index;
+    }
+    value = checked_reflectance(n, p, name, def);
+    return -1;
+  }
 
   uint32_t resolve_ref(pugi::xml_node r) {
     std::string id = attr(r, "id");
@@ -704,9 +862,15 @@ class MitsubaParser {
       emission = &radiance;
     }
 
+    // Textures need texture coordinates: rectangles and OBJ meshes with vt have them.
+    auto refuse_texture = [&](const char* why) {
+      if (scene_.materials[size_t(material)].texture >= 0) error(n, std::string("a textured bsdf on ") + why);
+    };
     std::vector<Vec3> pos, nrm;
+    std::vector<Vec2> uv;
     std::vector<uint32_t> idx;
     if (type == "sphere") {
+      refuse_texture("a sphere is not supported (no texture coordinates)");
       Vec3 center = p.get_point("center", {});
       double radius = p.get_float("radius", 1.0);
       if (!(radius > 0)) error(n, "radius must be positive");
@@ -723,9 +887,11 @@ class MitsubaParser {
       p.check_all_used();
       pos = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
       nrm.assign(4, {0, 0, 1});
+      uv = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};  // Mitsuba's rectangle
       idx = {0, 1, 2, 2, 3, 0};
     } else if (type == "cube") {
       p.check_all_used();
+      refuse_texture("a cube is not supported (no texture coordinates)");
       // Each face: 4 corners counter-clockwise seen from outside.
       for (int axis = 0; axis < 3; ++axis)
         for (int sgn = -1; sgn <= 1; sgn += 2) {
@@ -759,6 +925,8 @@ class MitsubaParser {
       ObjMesh mesh = read_obj(full.string(), false);
       pos = std::move(mesh.positions);
       if (!face_normals) nrm = std::move(mesh.normals);
+      if (mesh.texcoords.empty()) refuse_texture(("an OBJ mesh without texture coordinates ('" + file + "')").c_str());
+      uv = std::move(mesh.texcoords);
       idx = std::move(mesh.indices);
     } else {
       error(n, "unknown shape '" + type + "' (supported: obj, rectangle, cube, sphere)");
@@ -778,7 +946,7 @@ class MitsubaParser {
     if (flip)
       for (Vec3& v : nrm) v = -v;
     if (analytic) nrm.clear();  // flat faces: the geometric normal is exact
-    scene_.add_mesh(pos, nrm, idx, uint32_t(material), emission);
+    scene_.add_mesh(pos, nrm, idx, uint32_t(material), emission, uv);
   }
 
   std::string path_;
@@ -788,6 +956,7 @@ class MitsubaParser {
   pugi::xml_document doc_;
   std::map<std::string, uint32_t> bsdfs_;
   Scene scene_;
+  bool legacy_names_ = false;  // a Mitsuba 0.5/0.6 scene: camelCase parameter names
 };
 
 std::string lower_extension(const std::string& path) {

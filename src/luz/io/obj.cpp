@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <tuple>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -201,13 +202,16 @@ ObjMesh read_obj(const std::string& path, bool with_materials) {
     if (!std::isfinite(x)) throw InputError(path, 0, "vertex coordinate is not a finite number");
   for (float x : attrib.normals)
     if (!std::isfinite(x)) throw InputError(path, 0, "normal is not a finite number");
-  const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3;
+  for (float x : attrib.texcoords)
+    if (!std::isfinite(x)) throw InputError(path, 0, "texture coordinate is not a finite number");
+  const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3, nt = attrib.texcoords.size() / 2;
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     if (shape.mesh.indices.size() != 3 * shape.mesh.num_face_vertices.size())
       throw InputError(path, 0, "face triangulation failed");
     for (const tinyobj::index_t& idx : shape.mesh.indices)
       if (idx.vertex_index < 0 || size_t(idx.vertex_index) >= nv ||
-          (idx.normal_index >= 0 && size_t(idx.normal_index) >= nn))
+          (idx.normal_index >= 0 && size_t(idx.normal_index) >= nn) ||
+          (idx.texcoord_index >= 0 && size_t(idx.texcoord_index) >= nt))
         throw InputError(path, 0, "face index out of range");
   }
 
@@ -223,18 +227,22 @@ ObjMesh read_obj(const std::string& path, bool with_materials) {
       mesh.materials.push_back(om);
     }
 
-  bool all_normals = !attrib.normals.empty();
+  // Normals and texture coordinates are used only when every face vertex has one.
+  bool all_normals = !attrib.normals.empty(), all_texcoords = !attrib.texcoords.empty();
   for (const tinyobj::shape_t& shape : reader.GetShapes())
-    for (const tinyobj::index_t& idx : shape.mesh.indices)
+    for (const tinyobj::index_t& idx : shape.mesh.indices) {
       if (idx.normal_index < 0) all_normals = false;
+      if (idx.texcoord_index < 0) all_texcoords = false;
+    }
 
-  std::map<std::pair<int, int>, uint32_t> remap;
+  std::map<std::tuple<int, int, int>, uint32_t> remap;
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     const auto& ix = shape.mesh.indices;
     for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
       for (int j = 0; j < 3; ++j) {
         const tinyobj::index_t& idx = ix[3 * f + j];
-        std::pair<int, int> key{idx.vertex_index, all_normals ? idx.normal_index : -1};
+        std::tuple<int, int, int> key{idx.vertex_index, all_normals ? idx.normal_index : -1,
+                                      all_texcoords ? idx.texcoord_index : -1};
         auto it = remap.find(key);
         if (it == remap.end()) {
           it = remap.emplace(key, uint32_t(mesh.positions.size())).first;
@@ -243,6 +251,10 @@ ObjMesh read_obj(const std::string& path, bool with_materials) {
           if (all_normals) {
             const float* n = &attrib.normals[3 * size_t(idx.normal_index)];
             mesh.normals.push_back({n[0], n[1], n[2]});
+          }
+          if (all_texcoords) {
+            const float* t = &attrib.texcoords[2 * size_t(idx.texcoord_index)];
+            mesh.texcoords.push_back({t[0], 1.f - t[1]});
           }
         }
         mesh.indices.push_back(it->second);

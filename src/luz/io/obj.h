@@ -16,13 +16,16 @@ struct ObjMaterial {
 
 struct ObjMesh {
   std::vector<Vec3> positions, normals;  // normals empty or one per position
+  // Texture coordinates, empty or one per position, with v flipped (1 - vt.v)
+  // as Mitsuba's OBJ loader does by default (texture.h's convention).
+  std::vector<Vec2> texcoords;
   std::vector<uint32_t> indices;
   std::vector<int> face_material;  // per triangle, -1: none
   std::vector<ObjMaterial> materials;
 };
 
 // Throws InputError. Faces are triangulated; vertices are de-indexed per
-// (position, normal) pair.
+// (position, normal, texture coordinate) triple.
 ObjMesh read_obj(const std::string& path, bool with_materials);
 
 }  // namespace luz

@@ -6,8 +6,17 @@
 namespace luz {
 
 void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
-                     uint32_t material, const Color* emission) {
+                     uint32_t material, const Color* emission, const std::vector<Vec2>& uv) {
   uint32_t base = uint32_t(positions.size());
+  // Texture coordinates as normals: for all vertices or none; meshes without
+  // them get (0, 0) once another mesh has some.
+  if (!uv.empty() || !uvs.empty()) {
+    uvs.resize(positions.size());
+    if (uv.empty())
+      uvs.resize(positions.size() + pos.size(), Vec2{});
+    else
+      uvs.insert(uvs.end(), uv.begin(), uv.end());
+  }
   // Keep normals either absent for all vertices or present for all.
   if (!nrm.empty() && normals.empty() && !positions.empty()) {
     normals.resize(positions.size());
@@ -58,6 +67,18 @@ void Scene::add_sphere(Vec3 center, float radius, uint32_t material, const Color
 uint32_t Scene::add_material(const Bsdf& b) {
   materials.push_back(b);
   return uint32_t(materials.size() - 1);
+}
+
+uint32_t Scene::add_texture(TextureDesc desc, const std::vector<uint32_t>& image) {
+  if (srgb_table.empty())  // texture.h's srgb_to_linear, in double
+    for (int k = 0; k < 256; ++k) {
+      double c = k / 255.0;
+      srgb_table.push_back(float(c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4)));
+    }
+  desc.offset = uint32_t(texels.size());
+  texels.insert(texels.end(), image.begin(), image.end());
+  textures.push_back(desc);
+  return uint32_t(textures.size() - 1);
 }
 
 namespace {
@@ -251,12 +272,17 @@ SceneView Scene::view() const {
   v.indices = indices.data();
   v.tri_material = tri_material.data();
   v.tri_emitter = tri_emitter.data();
+  v.uvs = uvs.empty() ? nullptr : uvs.data();
   v.tri_normals = tri_normals.size() == num_triangles() && !tri_normals.empty() ? tri_normals.data() : nullptr;
   v.num_triangles = num_triangles();
   v.spheres = spheres.data();
   v.num_spheres = uint32_t(spheres.size());
   v.materials = materials.data();
   v.num_materials = uint32_t(materials.size());
+  v.textures = textures.data();
+  v.texels = texels.data();
+  v.srgb_table = srgb_table.data();
+  v.num_textures = uint32_t(textures.size());
   v.emitters = emitters.data();
   v.emitter_cdf = emitter_cdf.data();
   v.emitter_pmf = emitter_pmf.data();

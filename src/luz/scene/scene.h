@@ -23,12 +23,18 @@ struct RenderSettings {
 struct Scene {
   std::vector<Vec3> positions;
   std::vector<Vec3> normals;  // empty, or one per position
+  std::vector<Vec2> uvs;      // empty, or one per position (texture coordinates, texture.h)
   std::vector<uint32_t> indices;
   std::vector<uint32_t> tri_material;
   std::vector<int32_t> tri_emitter;
   std::vector<Sphere> spheres;
   std::vector<Bsdf> materials;
   std::vector<Emitter> emitters;
+  // Bitmap textures (texture.h): descriptors, all texels back to back, and
+  // the sRGB decoding table (filled by the first add_texture).
+  std::vector<TextureDesc> textures;
+  std::vector<uint32_t> texels;
+  std::vector<float> srgb_table;
   Camera camera;
   RenderSettings settings;
 
@@ -41,11 +47,15 @@ struct Scene {
   uint32_t num_triangles() const { return uint32_t(tri_material.size()); }
 
   // Appends a triangle mesh (positions already in world space). normals may be
-  // empty. Emitter, if >= 0, is a template copied once per triangle.
+  // empty, and so may uv (texture coordinates). Emitter, if >= 0, is a
+  // template copied once per triangle.
   void add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
-                uint32_t material, const Color* emission);
+                uint32_t material, const Color* emission, const std::vector<Vec2>& uv = {});
   void add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip);
   uint32_t add_material(const Bsdf& b);
+  // Appends a texture's width · height RGBA8 texels (rows top to bottom);
+  // desc.offset is set here. Returns the texture's index.
+  uint32_t add_texture(TextureDesc desc, const std::vector<uint32_t>& image);
 
   // Bounds, emitter selection table, triangle normals; call after loading,
   // before rendering, and again after any change to the geometry (view()

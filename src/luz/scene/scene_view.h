@@ -6,8 +6,18 @@
 #include "luz/bsdf/bsdf.h"
 #include "luz/camera/camera.h"
 #include "luz/light/emitter.h"
+#include "luz/texture/texture.h"
 
 namespace luz {
+
+// Room for a textured material's resolved copy (SceneView::material). A
+// union with an empty constructor: declaring one on every path vertex costs
+// nothing (a Bsdf's default constructor would store its defaults each time);
+// the copy assignment, trivial, starts the member's lifetime when it is used.
+union BsdfScratch {
+  Bsdf bsdf;
+  LUZ_INLINE BsdfScratch() {}
+};
 
 struct SceneView {
   // Triangles: all meshes merged; triangle k uses indices[3k..3k+2].
@@ -16,6 +26,7 @@ struct SceneView {
   const uint32_t* indices = nullptr;
   const uint32_t* tri_material = nullptr;
   const int32_t* tri_emitter = nullptr;  // -1: not emissive
+  const Vec2* uvs = nullptr;             // texture coordinates per vertex, or null: none
   // Unit geometric normal per triangle, or null: computed at each hit. The
   // CPU keeps them (the normalisation's square root and division leave the
   // start of every vertex: 1-3% less time on the Cornell box, 12 bytes per
@@ -28,6 +39,12 @@ struct SceneView {
 
   const Bsdf* materials = nullptr;
   uint32_t num_materials = 0;
+
+  // Bitmap textures (texture.h), referenced by Bsdf::texture.
+  const TextureDesc* textures = nullptr;
+  const uint32_t* texels = nullptr;
+  const float* srgb_table = nullptr;  // 256 entries
+  uint32_t num_textures = 0;
 
   // Emitters, chosen for next-event estimation in proportion to their power:
   // emitter_cdf[k] = P(choose one of 0..k); emitter_pmf[k] = P(choose k).
@@ -83,6 +100,32 @@ struct SceneView {
       it.emitter = s.emitter;
     }
     return it;
+  }
+
+  // Texture coordinates at a triangle hit, interpolated with the hit's own
+  // barycentrics ((0, 0) without uvs, or on a sphere: the loader refuses
+  // textures there).
+  LUZ_INLINE Vec2 hit_uv(const Hit& hit) const {
+    if (!uvs || hit.kind != PrimKind::Triangle) return {};
+    const Vec2 t0 = uvs[indices[3 * hit.prim]], t1 = uvs[indices[3 * hit.prim + 1]],
+               t2 = uvs[indices[3 * hit.prim + 2]];
+    const float b0 = 1.f - hit.u - hit.v;
+    return {t0.x * b0 + t1.x * hit.u + t2.x * hit.v, t0.y * b0 + t1.y * hit.u + t2.y * hit.v};
+  }
+
+  LUZ_INLINE Color texture_value(uint32_t t, Vec2 uv) const {
+    return texture_lookup(textures[t], texels, srgb_table, uv);
+  }
+
+  // The BSDF at a hit: the material as stored, or, for a textured one, a copy
+  // in `scratch` with the texture's value at the hit filled in. Untextured
+  // materials cost one test here and are never copied.
+  LUZ_FORCE_INLINE const Bsdf& material(const Interaction& it, const Hit& hit, BsdfScratch& scratch) const {
+    const Bsdf& m = materials[it.material];
+    if (m.texture < 0) return m;
+    scratch.bsdf = m;
+    scratch.bsdf.set_textured_reflectance(texture_value(uint32_t(m.texture), hit_uv(hit)));
+    return scratch.bsdf;
   }
 
   // Radiance an emitter sends from point `it` toward direction w (away from it).

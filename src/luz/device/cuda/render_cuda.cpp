@@ -308,9 +308,13 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.indices = up.upload(scene.indices, "triangle indices");
   dev.tri_material = up.upload(scene.tri_material, "triangle materials");
   dev.tri_emitter = up.upload(scene.tri_emitter, "triangle emitters");
+  dev.uvs = up.upload(scene.uvs, "texture coordinates");  // null when empty: no textures
   dev.tri_normals = nullptr;  // the GPU computes each hit's normal (not measured there with a table yet)
   dev.spheres = up.upload(scene.spheres, "spheres");
   dev.materials = up.upload(scene.materials, "materials");
+  dev.textures = up.upload(scene.textures, "texture descriptors");
+  dev.texels = up.upload(scene.texels, "texels");
+  dev.srgb_table = up.upload(scene.srgb_table, "the sRGB decoding table");
   dev.emitters = up.upload(scene.emitters, "emitters");
   dev.emitter_cdf = up.upload(scene.emitter_cdf, "the emitter CDF");
   dev.emitter_pmf = up.upload(scene.emitter_pmf, "the emitter PMF");

@@ -1,0 +1,83 @@
+// Bitmap textures for both devices: one flat array of 8-bit RGBA texels
+// (all textures back to back) and a small descriptor per texture, referenced
+// by index. No containers, no virtuals: SceneView holds plain pointers that
+// are valid on the CPU or copied to the GPU as they are.
+//
+// Texture coordinates follow Mitsuba: (0, 0) is the top-left corner of the
+// image, u grows to the right, v downward (the OBJ loader flips OBJ's vt.v as
+// Mitsuba's flipTexCoords, on by default, does). Addressing wraps around
+// (Mitsuba's default wrap mode "repeat"). The bilinear filter interpolates
+// between the four texel centres around the point, as Mitsuba's does
+// (texel (i, j) has its centre at ((i + 0.5) / width, (j + 0.5) / height)).
+#pragma once
+
+#include "luz/math/vec.h"
+
+namespace luz {
+
+enum class TextureFilter : uint32_t { Bilinear, Nearest };
+
+struct TextureDesc {
+  uint32_t offset = 0;  // index of the texture's first texel (top-left) in the texel array
+  uint32_t width = 0, height = 0;
+  TextureFilter filter = TextureFilter::Bilinear;
+  // Texels hold sRGB-encoded values (Mitsuba's default for 8-bit bitmaps),
+  // decoded through the 256-entry table; otherwise linear values · 255.
+  bool srgb = true;
+  // uv' = uv · scale + offset (Mitsuba 0.5's uscale, vscale, uoffset, voffset).
+  Vec2 scale{1.f, 1.f}, shift{0.f, 0.f};
+};
+
+// R in the low byte, then G, B, A.
+LUZ_INLINE uint32_t pack_rgba8(uint32_t r, uint32_t g, uint32_t b, uint32_t a = 255) {
+  return r | (g << 8) | (b << 16) | (a << 24);
+}
+
+// The standard sRGB decoding (IEC 61966-2-1) of a value in [0, 1].
+LUZ_INLINE float srgb_to_linear(float v) {
+  return v <= 0.04045f ? v * (1.f / 12.92f) : powf((v + 0.055f) * (1.f / 1.055f), 2.4f);
+}
+
+// A coordinate brought to [0, 1) by wrapping; a non-finite one reads as 0
+// (it would otherwise become an out-of-range index).
+LUZ_INLINE float wrap_unit(float u) {
+  u -= floorf(u);
+  return u >= 0.f && u < 1.f ? u : 0.f;
+}
+
+// One texel as linear RGB.
+LUZ_INLINE Color texel_color(uint32_t t, bool srgb, const float* srgb_table) {
+  uint32_t r = t & 255u, g = (t >> 8) & 255u, b = (t >> 16) & 255u;
+  if (srgb) return {srgb_table[r], srgb_table[g], srgb_table[b]};
+  const float s = 1.f / 255.f;
+  return {float(r) * s, float(g) * s, float(b) * s};
+}
+
+// The texture's linear RGB value at uv. `texels` is the whole texel array,
+// `srgb_table` the 256 decoded sRGB values (srgb_to_linear(k / 255)).
+LUZ_INLINE Color texture_lookup(const TextureDesc& tex, const uint32_t* texels, const float* srgb_table, Vec2 uv) {
+  const float u = wrap_unit(uv.x * tex.scale.x + tex.shift.x), v = wrap_unit(uv.y * tex.scale.y + tex.shift.y);
+  const uint32_t w = tex.width, h = tex.height;
+  const uint32_t* img = texels + tex.offset;
+  if (tex.filter == TextureFilter::Nearest) {
+    uint32_t i = uint32_t(u * float(w)), j = uint32_t(v * float(h));
+    i = i < w ? i : w - 1;  // u · w may round up to w
+    j = j < h ? j : h - 1;
+    return texel_color(img[j * w + i], tex.srgb, srgb_table);
+  }
+  // Continuous texel coordinates: texel centres at integers. x in [-0.5, w - 0.5).
+  const float x = u * float(w) - 0.5f, y = v * float(h) - 0.5f;
+  const float x0f = floorf(x), y0f = floorf(y);
+  const float fx = x - x0f, fy = y - y0f;
+  // x0 in [-1, w - 1]: -1 wraps to the last column, x0 + 1 = w to the first.
+  const int x0 = int(x0f), y0 = int(y0f);
+  const uint32_t i0 = x0 < 0 ? w - 1 : uint32_t(x0), i1 = uint32_t(x0 + 1) >= w ? 0u : uint32_t(x0 + 1);
+  const uint32_t j0 = y0 < 0 ? h - 1 : uint32_t(y0), j1 = uint32_t(y0 + 1) >= h ? 0u : uint32_t(y0 + 1);
+  const Color c00 = texel_color(img[j0 * w + i0], tex.srgb, srgb_table);
+  const Color c10 = texel_color(img[j0 * w + i1], tex.srgb, srgb_table);
+  const Color c01 = texel_color(img[j1 * w + i0], tex.srgb, srgb_table);
+  const Color c11 = texel_color(img[j1 * w + i1], tex.srgb, srgb_table);
+  return (c00 * (1.f - fx) + c10 * fx) * (1.f - fy) + (c01 * (1.f - fx) + c11 * fx) * fy;
+}
+
+}  // namespace luz
