@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "temp_dir.h"
+
 namespace luz_test {
 
 namespace fs = std::filesystem;
@@ -34,20 +36,8 @@ inline std::string slurp(const fs::path& p) {
   return ss.str();
 }
 
-class LuzCliTest : public ::testing::Test {
+class LuzCliTest : public TempDirTest {
  protected:
-  fs::path dir;
-
-  void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "luz_test_XXXXXX").string();
-    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
-    dir = tmpl;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
-
   // Runs luz with args in dir; stdout and stderr go to files there, removed after.
   CliResult run(const std::vector<std::string>& args) {
     fs::path out_file = dir / ".stdout", err_file = dir / ".stderr";

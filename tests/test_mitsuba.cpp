@@ -11,6 +11,7 @@
 #include <fstream>
 #include <string>
 
+#include "temp_dir.h"
 #include "luz/io/error.h"
 #include "luz/io/scene_loader.h"
 
@@ -29,24 +30,8 @@ constexpr float kTol = 1e-5f;
 }
 #define EXPECT_VEC_NEAR(a, ...) EXPECT_PRED_FORMAT2(VecNear, a, (__VA_ARGS__))
 
-class Mitsuba : public ::testing::Test {
+class Mitsuba : public TempDirTest {
  protected:
-  fs::path dir;
-  void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "luz_test_mitsuba_XXXXXX").string();
-    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
-    dir = tmpl;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
-
-  std::string write(const std::string& name, const std::string& text) {
-    fs::path p = dir / name;
-    std::ofstream(p, std::ios::binary) << text;
-    return p.string();
-  }
 
   // A scene with a default sensor, `body` after it, and `sensor` inside the
   // sensor. Lines: 1 <scene>, 2 <sensor>, `sensor` from line 3, and `body`

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <string>
 
+#include "temp_dir.h"
 #include "luz/bsdf/fresnel.h"
 #include "luz/device/cpu/render.h"
 #include "luz/io/error.h"
@@ -26,18 +27,8 @@ using luz::Color;
 
 namespace {
 
-class MitsubaBsdfs : public ::testing::Test {
+class MitsubaBsdfs : public TempDirTest {
  protected:
-  fs::path dir;
-  void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "luz_test_mitsuba_bsdfs_XXXXXX").string();
-    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
-    dir = tmpl;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
   // Lines: 1 <scene>, 2 <sensor/>, `body` from line 3.
   static std::string scene(const std::string& body) {
     return "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n" + body +

@@ -25,6 +25,7 @@
 #include <fstream>
 #include <string>
 
+#include "temp_dir.h"
 #include "luz/device/cpu/render.h"
 #include "luz/io/error.h"
 #include "luz/io/image.h"
@@ -56,24 +57,7 @@ struct TinyTexture {
   double at(float u, float v) const { return texture_lookup(desc, texels.data(), table.data(), {u, v}).x * 255.0; }
 };
 
-class TempDir : public ::testing::Test {
- protected:
-  fs::path dir;
-  void SetUp() override {
-    std::string tmpl = (fs::temp_directory_path() / "luz_test_textures_XXXXXX").string();
-    ASSERT_NE(::mkdtemp(tmpl.data()), nullptr);
-    dir = tmpl;
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(dir, ec);
-  }
-  std::string write(const std::string& name, const std::string& text) {
-    fs::path p = dir / name;
-    std::ofstream(p, std::ios::binary) << text;
-    return p.string();
-  }
-};
+class TempDir : public TempDirTest {};
 
 }  // namespace
 
