@@ -82,7 +82,7 @@ TEST(TextureLookup, BilinearMatchesHandComputedValuesAndWraps) {
   EXPECT_NEAR(t.at(1.9f, -0.5f / 3 + 2.f), t.at(0.9f, 2.5f / 3), eps);
   EXPECT_NEAR(t.at(-0.1f, 0.5f / 3), 0.8 * 25 + 0.2 * 5, eps);
   // A non-finite coordinate reads as 0 (no out-of-range index).
-  EXPECT_TRUE(std::isfinite(t.at(NAN, INFINITY)));
+  EXPECT_EQ(t.at(NAN, INFINITY), t.at(0.f, 0.f));
 }
 
 TEST(TextureLookup, NearestScaleAndOffset) {
@@ -131,10 +131,22 @@ TEST_F(TextureUv, ObjCoordinatesInterpolateWithTheHitsBarycentrics) {
         "v 0 0 0\nv 2 0 0\nv 2 2 0\nv 0 2 0\n"
         "vt 1.2 0.6\nvt 0.2 0.1\nvt 0.2 0.6\nvt 1.2 0.1\n"
         "f 1/2 2/4 3/1\nf 1/2 3/1 4/3\n");
-  Scene s = load_mitsuba(write("scene.xml", "<scene version=\"3.0.0\"><sensor type=\"perspective\"/>"
-                                            "<shape type=\"obj\"><string name=\"filename\" value=\"quad.obj\"/></shape>"
-                                            "</scene>"),
-                         {});
+  Image tex;  // any image: only a textured shape keeps its texture coordinates
+  tex.width = tex.height = 1;
+  tex.rgb = {0.5f, 0.5f, 0.5f};
+  write_image((dir / "tex.png").string(), tex);
+  const std::string shape = "<shape type=\"obj\"><string name=\"filename\" value=\"quad.obj\"/>";
+  const std::string textured = "<bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"bitmap\">"
+                               "<string name=\"filename\" value=\"tex.png\"/></texture></bsdf>";
+  auto load = [&](const std::string& body) {
+    return load_mitsuba(write("scene.xml", "<scene version=\"3.0.0\"><sensor type=\"perspective\"/>" + body + "</scene>"),
+                        {});
+  };
+  // Untextured, the mesh is not split at uv seams and carries no uvs.
+  Scene plain = load(shape + "</shape>");
+  EXPECT_TRUE(plain.uvs.empty());
+  EXPECT_EQ(plain.positions.size(), 4u);
+  Scene s = load(shape + textured + "</shape>");
   ASSERT_EQ(s.num_triangles(), 2u);
   ASSERT_EQ(s.uvs.size(), s.positions.size());
   SceneView v = s.view();
@@ -254,8 +266,12 @@ std::string naming_scene(bool legacy) {
          "\" value=\"1.1\"/><rgb name=\"" + n("diffuseReflectance", "diffuse_reflectance") +
          "\" value=\"0.3 0.4 0.5\"/><rgb name=\"" + n("specularReflectance", "specular_reflectance") +
          "\" value=\"0.7\"/><string name=\"distribution\" value=\"ggx\"/><float name=\"alpha\" value=\"0.2\"/></bsdf>\n"
-         "<bsdf type=\"conductor\" id=\"c\"><float name=\"" + n("extEta", "ext_eta") +
-         "\" value=\"1\"/><rgb name=\"eta\" value=\"0.2 0.3 1.4\"/><rgb name=\"k\" value=\"3.9 2.4 1.6\"/></bsdf>\n"
+         // Mitsuba 0.5's extEta divides eta and k (Mitsuba 3 has no such parameter).
+         "<bsdf type=\"conductor\" id=\"c\">" +
+         n("<float name=\"extEta\" value=\"1.25\"/><rgb name=\"eta\" value=\"0.25 0.375 1.75\"/>"
+           "<rgb name=\"k\" value=\"4.875 3 2\"/>",
+           "<rgb name=\"eta\" value=\"0.2 0.3 1.4\"/><rgb name=\"k\" value=\"3.9 2.4 1.6\"/>") +
+         "</bsdf>\n"
          "<shape type=\"rectangle\"><transform name=\"" + n("toWorld", "to_world") +
          "\"><translate x=\"1\"/></transform><boolean name=\"" + n("flipNormals", "flip_normals") +
          "\" value=\"true\"/><ref id=\"p\"/></shape>\n"
@@ -301,7 +317,10 @@ TEST_F(MitsubaLegacy, CamelCaseNamesLoadAsTheirMitsuba3Spelling) {
   const Bsdf& ca = a.materials[a.tri_material.back()];
   const Bsdf& cb = b.materials[b.tri_material.back()];
   ASSERT_EQ(ca.type, BsdfType::SmoothConductor);
-  EXPECT_EQ(ca.smooth_conductor.eta.value.z, cb.smooth_conductor.eta.value.z);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(ca.smooth_conductor.eta.value[k], cb.smooth_conductor.eta.value[k], 1e-6f);
+    EXPECT_NEAR(ca.smooth_conductor.k.value[k], cb.smooth_conductor.k.value[k], 1e-6f);
+  }
   EXPECT_NEAR(ca.smooth_conductor.eta.value.z, 1.4f, 1e-6f);
 }
 
@@ -338,8 +357,12 @@ TEST_F(MitsubaLegacy, BadNamesAreErrorsWithTheirLine) {
                5, "no such file");
   write("t.png", "");
   expect_error(head + "<texture name=\"reflectance\" type=\"bitmap\"><string name=\"filename\" value=\"t.png\"/>"
-                      "<string name=\"filterType\" value=\"ewa\"/></texture>\n</bsdf></shape></scene>\n",
-               5, "unknown filter_type 'ewa'");
+                      "<string name=\"filterType\" value=\"anisotropic\"/></texture>\n</bsdf></shape></scene>\n",
+               5, "unknown filter_type 'anisotropic'");
+  // A file that exists but is no image.
+  expect_error(head + "<texture name=\"reflectance\" type=\"bitmap\"><string name=\"filename\" value=\"t.png\"/>"
+                      "</texture>\n</bsdf></shape></scene>\n",
+               5, "cannot read image");
   expect_error("<scene version=\"0.5.0\">\n<sensor type=\"perspective\"/>\n<shape type=\"rectangle\">\n"
                "<bsdf type=\"phong\">\n<texture name=\"diffuseReflectance\" type=\"bitmap\">"
                "<string name=\"filename\" value=\"t.png\"/></texture>\n</bsdf></shape></scene>\n",

@@ -216,20 +216,18 @@ struct BsdfComponent {
 struct Bsdf : BsdfComponent {
   bool two_sided = false;
   bool blend = false;
-  float blend_weight = 0.f;  // w: the share of `second`
-  bool has_back = false;      // two_sided with a different BSDF behind
   // A bitmap texture (SceneView::textures) giving the front component's
   // diffuse reflectance at each hit, or -1. SceneView::material() resolves
   // it into a copy with the value filled in (set_textured_reflectance), so
-  // the models themselves only ever see constants.
-  int32_t texture = -1;
+  // the models themselves only ever see constants. 16 bits, beside the other
+  // flags every vertex reads (Scene::add_texture keeps the count in range).
+  int16_t texture = -1;
+  float blend_weight = 0.f;  // w: the share of `second`
+  bool has_back = false;      // two_sided with a different BSDF behind
   BsdfComponent second;
   BsdfComponent back;
 
-  // The models whose reflectance a texture may give (the loader refuses others).
-  LUZ_INLINE static bool texturable(BsdfType t) {
-    return t == BsdfType::Diffuse || t == BsdfType::SmoothPlastic || t == BsdfType::RoughPlastic;
-  }
+  // Diffuse, smooth and rough plastic (the loader refuses textures on others).
   LUZ_INLINE void set_textured_reflectance(Color c) {
     switch (type) {
       case BsdfType::Diffuse: diffuse.reflectance = c; break;

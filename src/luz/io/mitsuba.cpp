@@ -23,6 +23,7 @@
 #include <limits>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 
 #include "luz/io/error.h"
 #include "luz/io/obj.h"
@@ -642,7 +643,7 @@ class MitsubaParser {
       Color eta, k;
       conductor_ior(n, p, eta, k);
       // Mitsuba 0.5's extEta: the exterior medium's index; eta and k are relative to it.
-      float ext_eta = ior(n, p, "ext_eta", "vacuum");
+      float ext_eta = legacy_names_ ? ior(n, p, "ext_eta", "vacuum") : 1.f;  // not a Mitsuba 3 parameter
       eta = eta / ext_eta;
       k = k / ext_eta;
       Color spec = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
@@ -707,7 +708,7 @@ class MitsubaParser {
                    "roughdielectric, thindielectric, plastic, roughplastic, ward, blendbsdf, twosided, bumpmap)");
     }
     p.check_all_used();
-    b.texture = texture;
+    b.texture = int16_t(texture);
     return b;
   }
 
@@ -752,12 +753,12 @@ class MitsubaParser {
     // per pixel average the texels that trilinear filtering would pre-average.
     std::string filter = p.get_string("filter_type", "bilinear");
     if (filter == "nearest") desc.filter = TextureFilter::Nearest;
-    else if (filter != "bilinear" && filter != "trilinear")
-      error(t, "unknown filter_type '" + filter + "' (supported: bilinear, trilinear, nearest)");
+    else if (filter != "bilinear" && filter != "trilinear" && filter != "ewa")  // ewa: Mitsuba 0.5's default, as trilinear
+      error(t, "unknown filter_type '" + filter + "' (supported: bilinear, trilinear, ewa, nearest)");
     std::string wrap = p.get_string("wrap_mode", "repeat");
     if (wrap != "repeat") error(t, "wrap_mode '" + wrap + "' is not supported (repeat)");
     desc.srgb = !p.get_bool("raw", false);
-    double gamma = p.get_float("gamma", -1.0);
+    double gamma = legacy_names_ ? p.get_float("gamma", -1.0) : -1.0;  // Mitsuba 3 has `raw` instead
     if (gamma == 1.0) desc.srgb = false;
     else if (gamma != -1.0) error(t, "bitmap gamma must be -1 (sRGB) or 1 (linear)");
     desc.scale = {float(p.get_float("uscale", 1.0)), float(p.get_float("vscale", 1.0))};
@@ -778,7 +779,11 @@ class MitsubaParser {
     }
     desc.width = uint32_t(img.width);
     desc.height = uint32_t(img.height);
-    out.index = int32_t(scene_.add_texture(desc, img.rgba));
+    try {
+      out.index = int32_t(scene_.add_texture(desc, img.rgba));
+    } catch (const std::length_error& e) {
+      error(t, e.what());
+    }
     double sum[3] = {0, 0, 0};
     const float* table = scene_.srgb_table.data();
     for (uint32_t texel : img.rgba) {
@@ -863,8 +868,10 @@ class MitsubaParser {
     }
 
     // Textures need texture coordinates: rectangles and OBJ meshes with vt have them.
+    // Only a textured shape keeps them (see read_obj).
+    const bool textured = scene_.materials[size_t(material)].texture >= 0;
     auto refuse_texture = [&](const char* why) {
-      if (scene_.materials[size_t(material)].texture >= 0) error(n, std::string("a textured bsdf on ") + why);
+      if (textured) error(n, std::string("a textured bsdf on ") + why);
     };
     std::vector<Vec3> pos, nrm;
     std::vector<Vec2> uv;
@@ -887,7 +894,7 @@ class MitsubaParser {
       p.check_all_used();
       pos = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
       nrm.assign(4, {0, 0, 1});
-      uv = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};  // Mitsuba's rectangle
+      if (textured) uv = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};  // Mitsuba's rectangle
       idx = {0, 1, 2, 2, 3, 0};
     } else if (type == "cube") {
       p.check_all_used();
@@ -922,10 +929,10 @@ class MitsubaParser {
         error(n, "cannot open OBJ file '" + full.string() + "': " +
                      (exists ? "not a regular file" : "no such file"));
       }
-      ObjMesh mesh = read_obj(full.string(), false);
+      ObjMesh mesh = read_obj(full.string(), false, textured);
       pos = std::move(mesh.positions);
       if (!face_normals) nrm = std::move(mesh.normals);
-      if (mesh.texcoords.empty()) refuse_texture(("an OBJ mesh without texture coordinates ('" + file + "')").c_str());
+      if (textured && mesh.texcoords.empty()) refuse_texture(("an OBJ mesh without texture coordinates ('" + file + "')").c_str());
       uv = std::move(mesh.texcoords);
       idx = std::move(mesh.indices);
     } else {

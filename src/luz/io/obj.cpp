@@ -180,7 +180,7 @@ std::string read_text(const std::string& path) {
 
 }  // namespace
 
-ObjMesh read_obj(const std::string& path, bool with_materials) {
+ObjMesh read_obj(const std::string& path, bool with_materials, bool with_texcoords) {
   const std::string text = read_text(path);
   ObjChecker(path, text).check();
   if (with_materials) check_mtl_files(path, text);
@@ -228,7 +228,7 @@ ObjMesh read_obj(const std::string& path, bool with_materials) {
     }
 
   // Normals and texture coordinates are used only when every face vertex has one.
-  bool all_normals = !attrib.normals.empty(), all_texcoords = !attrib.texcoords.empty();
+  bool all_normals = !attrib.normals.empty(), all_texcoords = with_texcoords && !attrib.texcoords.empty();
   for (const tinyobj::shape_t& shape : reader.GetShapes())
     for (const tinyobj::index_t& idx : shape.mesh.indices) {
       if (idx.normal_index < 0) all_normals = false;

@@ -25,7 +25,10 @@ struct ObjMesh {
 };
 
 // Throws InputError. Faces are triangulated; vertices are de-indexed per
-// (position, normal, texture coordinate) triple.
-ObjMesh read_obj(const std::string& path, bool with_materials);
+// (position, normal) pair, or per (position, normal, texture coordinate)
+// triple with `with_texcoords` (only then is `texcoords` filled: de-indexing
+// by texture coordinates splits vertices at every uv seam, which costs an
+// untextured mesh memory and Embree its quads).
+ObjMesh read_obj(const std::string& path, bool with_materials, bool with_texcoords = false);
 
 }  // namespace luz

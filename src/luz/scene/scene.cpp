@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <stdexcept>
 
 namespace luz {
 
 void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
                      uint32_t material, const Color* emission, const std::vector<Vec2>& uv) {
   uint32_t base = uint32_t(positions.size());
+  if (!uv.empty() && uv.size() != pos.size()) throw std::invalid_argument("add_mesh: one texture coordinate per position");
   // Texture coordinates as normals: for all vertices or none; meshes without
   // them get (0, 0) once another mesh has some.
   if (!uv.empty() || !uvs.empty()) {
@@ -75,6 +78,8 @@ uint32_t Scene::add_texture(TextureDesc desc, const std::vector<uint32_t>& image
       double c = k / 255.0;
       srgb_table.push_back(float(c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4)));
     }
+  if (textures.size() >= 32767) throw std::length_error("more than 32767 bitmap textures");
+  if (texels.size() + image.size() > size_t(UINT32_MAX)) throw std::length_error("more than 2^32 texels in all textures");
   desc.offset = uint32_t(texels.size());
   texels.insert(texels.end(), image.begin(), image.end());
   textures.push_back(desc);

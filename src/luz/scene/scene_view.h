@@ -3,6 +3,9 @@
 // queries lives here.
 #pragma once
 
+#include <new>
+#include <type_traits>
+
 #include "luz/bsdf/bsdf.h"
 #include "luz/camera/camera.h"
 #include "luz/light/emitter.h"
@@ -13,11 +16,15 @@ namespace luz {
 // Room for a textured material's resolved copy (SceneView::material). A
 // union with an empty constructor: declaring one on every path vertex costs
 // nothing (a Bsdf's default constructor would store its defaults each time);
-// the copy assignment, trivial, starts the member's lifetime when it is used.
+// the copy is placement-new'ed into it when used, which starts the member's
+// lifetime (Bsdf's default member initialisers make it non-trivial to default
+// construct, so a plain assignment would not).
 union BsdfScratch {
   Bsdf bsdf;
   LUZ_INLINE BsdfScratch() {}
 };
+static_assert(std::is_trivially_copyable_v<Bsdf> && std::is_trivially_destructible_v<Bsdf>,
+              "BsdfScratch neither destroys its Bsdf nor copies it member-wise");
 
 struct SceneView {
   // Triangles: all meshes merged; triangle k uses indices[3k..3k+2].
@@ -123,7 +130,7 @@ struct SceneView {
   LUZ_FORCE_INLINE const Bsdf& material(const Interaction& it, const Hit& hit, BsdfScratch& scratch) const {
     const Bsdf& m = materials[it.material];
     if (m.texture < 0) return m;
-    scratch.bsdf = m;
+    ::new (static_cast<void*>(&scratch.bsdf)) Bsdf(m);
     scratch.bsdf.set_textured_reflectance(texture_value(uint32_t(m.texture), hit_uv(hit)));
     return scratch.bsdf;
   }
