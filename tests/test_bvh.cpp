@@ -706,7 +706,7 @@ TEST(Bvh, SahCloseToFullSweep) {
 TEST(Bvh, SmallSubtreesMatchFullSweep) {
   Rng rng(11);
   for (int n : {2, 3, 5, 9, 17, 31, 32}) {
-    for (int variant = 0; variant < 3; ++variant) {
+    for (int variant = 0; variant < 6; ++variant) {
       Scene s;
       std::vector<Vec3> p;
       std::vector<uint32_t> idx;
@@ -715,8 +715,8 @@ TEST(Bvh, SmallSubtreesMatchFullSweep) {
       auto grid = [&](float scale) { return std::floor(rng.uniform() * scale) * 0x1p-10f; };
       for (int i = 0; i < n; ++i) {
         Vec3 c{grid(1024.f), grid(1024.f), grid(1024.f)};
-        if (variant == 1) c.x = float(i % 3) * 0.25f;                // ties on x
-        if (variant == 2 && i >= n / 3) c = {0.5f, 0.5f, 0.5f};      // coinciding
+        if (variant % 3 == 1) c.x = float(i % 3) * 0.25f;            // ties on x
+        if (variant % 3 == 2 && i >= n / 3) c = {0.5f, 0.5f, 0.5f};  // coinciding
         Vec3 d{0x1p-10f + grid(64.f), 0x1p-10f + grid(64.f), 0x1p-10f + grid(64.f)};
         // Box [c - d, c + d]: centroid exactly c.
         uint32_t base = uint32_t(p.size());
@@ -730,6 +730,9 @@ TEST(Bvh, SmallSubtreesMatchFullSweep) {
       std::string name = "small n=" + std::to_string(n) + " variant " + std::to_string(variant);
       BvhBuildOptions opt, full;
       full.full_sweep = true;
+      // Variants 3..5: one primitive per leaf, so that coinciding centroids
+      // (two-primitive nodes included) must be split.
+      if (variant >= 3) opt.max_leaf_size = full.max_leaf_size = 1;
       Bvh b = build_bvh(s.view(), opt), bf = build_bvh(s.view(), full);
       check_structure(name.c_str(), s, b, opt);
       check_structure((name + " full").c_str(), s, bf, full);
@@ -776,6 +779,45 @@ TEST(Bvh, LooseCentroidBoundsStillSplitBySah) {
   double sah = bvh_sah_cost(b), sah_full = bvh_sah_cost(bf), sah_med = bvh_sah_cost(bm);
   std::printf("[loose] SAH cost %.3f (binned) vs %.3f (full sweep), %.3f (median)\n", sah, sah_full, sah_med);
   EXPECT_LE(sah, 1.005 * sah_full);
+}
+
+// The partition decides a primitive's side by comparing its scaled centroid
+// with the split bin's upper edge, not by binning it again; the bin counts
+// say beforehand where the sides meet, so any disagreement would lose or
+// duplicate primitives. Centroids on an integer lattice put many of them on
+// or next to bin edges (with 2, 7 and 32 bins per axis), where such a
+// disagreement would show; one and two threads (the large nodes partitioned
+// in parallel) must give valid trees, and the same one.
+TEST(Bvh, CentroidsOnBinEdgesStayPartitioned) {
+  std::vector<Vec3> p;
+  std::vector<uint32_t> idx;
+  for (int z = 0; z < 32; ++z)
+    for (int y = 0; y < 32; ++y)
+      for (int x = 0; x < 40; ++x) {
+        // A triangle whose box is [c - 1/4, c + 1/4]: centroid exactly c.
+        Vec3 c{float(x), float(y), float(z)};
+        uint32_t base = uint32_t(p.size());
+        p.push_back(c + Vec3{-0.25f, -0.25f, -0.25f});
+        p.push_back(c + Vec3{0.25f, 0.25f, -0.25f});
+        p.push_back(c + Vec3{0.25f, -0.25f, 0.25f});
+        idx.insert(idx.end(), {base, base + 1, base + 2});
+      }
+  Scene s;
+  s.add_mesh(p, {}, idx, 0, nullptr);
+  s.compile();
+  for (int bins : {2, 7, 32}) {
+    BvhBuildOptions o;
+    o.bins = bins;
+    o.threads = 1;
+    Bvh b1 = build_bvh(s.view(), o);
+    o.threads = 2;
+    Bvh b2 = build_bvh(s.view(), o);
+    std::string name = "lattice, " + std::to_string(bins) + " bins";
+    check_structure(name.c_str(), s, b1, o);
+    ASSERT_EQ(b1.nodes.size(), b2.nodes.size()) << name;
+    EXPECT_EQ(0, std::memcmp(b1.nodes.data(), b2.nodes.data(), b1.nodes.size() * sizeof(BvhNode))) << name;
+    EXPECT_EQ(b1.prims, b2.prims) << name;
+  }
 }
 
 // Builds on 1 thread and on several give the same tree, bit for bit, also

@@ -22,8 +22,8 @@
 // much as the build above a million primitives).
 //
 // Where the time goes (Sponza, 66k triangles, one thread, perf): binning
-// 28%, the small subtrees 34% (sorting 8%), partition and bin sweeps 22%,
-// the depth-first renumbering 6%, the PrimRefs 2%.
+// 32%, the small subtrees 33% (sorting 7%), partition and bin sweeps 19%,
+// the depth-first renumbering 5%, the PrimRefs 2%.
 #include "luz/accel/bvh_build.h"
 
 #include <tbb/blocked_range.h>
@@ -38,6 +38,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <vector>
@@ -154,14 +155,24 @@ struct Bins {
     return (c - i4{kCountBase, kCountBase, kCountBase, kCountBase}) & i4{-1, -1, -1, 0};
   }
   // Adds a box (l from bin_lo, h with w lane 0) to bin k[a] of each axis a.
+  // The three bins' byte offsets are computed in one vector (lo[a][k] lies
+  // a·kMaxBins + k vectors into lo) and used unsigned, which saves the sign
+  // extensions and scalings of three array indices.
   void add(i4 k, f4 l, f4 h) {
-    int k0 = k[0], k1 = k[1], k2 = k[2];
-    lo[0][k0] = (f4)((i4)min4(l, lo[0][k0]) + kOneW);
-    hi[0][k0] = max4(hi[0][k0], h);
-    lo[1][k1] = (f4)((i4)min4(l, lo[1][k1]) + kOneW);
-    hi[1][k1] = max4(hi[1][k1], h);
-    lo[2][k2] = (f4)((i4)min4(l, lo[2][k2]) + kOneW);
-    hi[2][k2] = max4(hi[2][k2], h);
+    constexpr int32_t kAxis = kMaxBins * sizeof(f4);
+    constexpr ptrdiff_t kHi = 3 * kAxis;  // from lo[a][k] to hi[a][k]
+    static_assert(offsetof(Bins, hi) == kHi);
+    const i4 off = (k << 4) + i4{0, kAxis, 2 * kAxis, 0};
+    char* base = reinterpret_cast<char*>(lo);
+    f4* l0 = reinterpret_cast<f4*>(base + uint32_t(off[0]));
+    f4* l1 = reinterpret_cast<f4*>(base + uint32_t(off[1]));
+    f4* l2 = reinterpret_cast<f4*>(base + uint32_t(off[2]));
+    *l0 = (f4)((i4)min4(l, *l0) + kOneW);
+    l0[kHi / 16] = max4(l0[kHi / 16], h);
+    *l1 = (f4)((i4)min4(l, *l1) + kOneW);
+    l1[kHi / 16] = max4(l1[kHi / 16], h);
+    *l2 = (f4)((i4)min4(l, *l2) + kOneW);
+    l2[kHi / 16] = max4(l2[kHi / 16], h);
   }
 };
 
@@ -236,12 +247,18 @@ struct Binner {
   bool degenerate() const { return scale[0] == 0.f && scale[1] == 0.f && scale[2] == 0.f; }
   // max() first sends NaN to bin 0.
   i4 bin(f4 c2) const { return __builtin_convertvector(min4(max4((c2 - cmin) * scale, splat(0.f)), top), i4); }
-  // The same on one axis (the same IEEE operations, so the same bin): for
-  // the partition, which needs only the split axis.
-  int bin(float c2, int a) const {
-    f4 x = (splat(c2) - splat(cmin[a])) * splat(scale[a]);
-    return __builtin_convertvector(min4(max4(x, splat(0.f)), splat(top[a])), i4)[0];
-  }
+  // The partition's side test for a split after bin `last` (< nb − 1) on
+  // axis a: whether centroid c2 falls into a bin ≤ last. bin() takes
+  // ⌊clamp(v, 0, nb − 1)⌋ of v = (c2 − cmin)·scale; since last + 1 ≤ nb − 1,
+  // that is ≤ last exactly when v < last + 1 or v is NaN (max() sends NaN to
+  // bin 0). So the test computes the same v by the same IEEE operations and
+  // compares it with last + 1: the binning's answer, without the clamps and
+  // the conversion.
+  struct SideTest {
+    float cmin, scale, limit;
+    bool left(float c2) const { return !((c2 - cmin) * scale >= limit); }
+  };
+  SideTest side_test(int a, int last) const { return {cmin[a], scale[a], float(last + 1)}; }
 };
 
 // Bins refs[b, e) into `bins` (cleared, nb bins). Ranges of 64 or more
@@ -470,6 +487,13 @@ class Builder {
     }
   };
   static int small_index(f4 hi) { return std::bit_cast<int32_t>(hi[3]); }
+  // The sums of the four lanes of x, y and z, in lanes 0, 1 and 2 (3: junk).
+  static i4 sum_lanes3(i4 x, i4 y, i4 z) {
+    i4 xy = __builtin_shufflevector(x, y, 0, 4, 1, 5) + __builtin_shufflevector(x, y, 2, 6, 3, 7);  // x02 y02 x13 y13
+    i4 zz = __builtin_shufflevector(z, z, 0, 1, 2, 3) + __builtin_shufflevector(z, z, 2, 3, 0, 1);  // z02 z13 . .
+    return __builtin_shufflevector(xy, zz, 0, 1, 4, 4) + __builtin_shufflevector(xy, zz, 2, 3, 5, 5);
+  }
+
   // The three lists' tie ranks at position k (lanes 0..2).
   static i4 tie_ranks(const SmallView& v, int k) {
     i4 w = __builtin_shufflevector((i4)v.lo[0][k], (i4)v.lo[1][k], 3, 7, 3, 7);
@@ -481,15 +505,32 @@ class Builder {
   uint32_t small_subtree(size_t b, size_t e, int side, const Box& box, int depth, bool may_leaf) {
     const int n = int(e - b);
     const PrimRef* p = buf_[side] + b;
-    f4 cen[kSweepMax];
-    for (int i = 0; i < n; ++i) cen[i] = centroid2(p[i]);
+    // The centroids axis by axis, four to a vector, padded with NaN (never
+    // smaller than or equal to anything), so that one comparison tests four.
+    constexpr int kBlocks = kSweepMax / 4;
+    f4 cen[3][kBlocks];
+    const int blocks = (n + 3) / 4;
+    for (int a = 0; a < 3; ++a) cen[a][blocks - 1] = splat(std::numeric_limits<float>::quiet_NaN());
+    for (int i = 0; i < n; ++i) {
+      f4 c = centroid2(p[i]);
+      for (int a = 0; a < 3; ++a) cen[a][i / 4][i % 4] = c[a];
+    }
     SmallSet set;
     for (int i = 0; i < n; ++i) {
-      // tie: centroids strictly smaller; pos: that plus equal ones earlier.
-      i4 tie{0, 0, 0, 0}, pos;
-      for (int j = 0; j < n; ++j) tie -= cen[j] < cen[i];
-      pos = tie;
-      for (int j = 0; j < i; ++j) pos -= cen[j] == cen[i];
+      // tie: centroids strictly smaller; pos: that plus equal ones earlier
+      // (lanes 0..2: the axes). Counted four at a time in lt[a] and eq[a];
+      // the block holding i counts only the equal ones before it.
+      const f4 ci[3] = {splat(cen[0][i / 4][i % 4]), splat(cen[1][i / 4][i % 4]), splat(cen[2][i / 4][i % 4])};
+      i4 lt[3] = {}, eq[3] = {};
+      const int own = i / 4;
+      for (int k = 0; k < own; ++k)
+        for (int a = 0; a < 3; ++a) lt[a] -= cen[a][k] < ci[a], eq[a] -= cen[a][k] == ci[a];
+      const i4 before = i4{0, 1, 2, 3} < i4{i % 4, i % 4, i % 4, i % 4};
+      for (int a = 0; a < 3; ++a) lt[a] -= cen[a][own] < ci[a], eq[a] -= (cen[a][own] == ci[a]) & before;
+      for (int k = own + 1; k < blocks; ++k)
+        for (int a = 0; a < 3; ++a) lt[a] -= cen[a][k] < ci[a];
+      const i4 tie = sum_lanes3(lt[0], lt[1], lt[2]);
+      const i4 pos = tie + sum_lanes3(eq[0], eq[1], eq[2]);
       f4 lo = (f4)(((i4)p[i].lo & i4{-1, -1, -1, 0}) | i4{0, 0, 0, -1});
       f4 hi = (f4)((i4)p[i].hi | i4{0, 0, 0, i});
       for (int a = 0; a < 3; ++a) {
@@ -502,6 +543,37 @@ class Builder {
     return small_node(v, n, p, b, box, depth, may_leaf);
   }
 
+  // small_node for two primitives (the commonest size by far), without the
+  // sweeps and their set-up. Its result is the sweep's: the one split there
+  // is (a box each side) costs the same on every axis on which the
+  // centroids differ, so the sweep takes the first such axis, or none (the
+  // costs are not below infinity, or no axis separates the centroids): a
+  // leaf if allowed, else the median split on axis 0.
+  uint32_t small_pair(const SmallView& v, const PrimRef* p, size_t first, const Box& box, bool may_leaf) {
+    const i4 differ = tie_ranks(v, 0) != tie_ranks(v, 1);
+    int axis = differ[0] ? 0 : differ[1] ? 1 : 2;
+    // The same areas and sum as the sweep (half_areas3 per lane; x·1 = x).
+    const float cost = half_area(v.lo[axis][0], v.hi[axis][0]) + half_area(v.lo[axis][1], v.hi[axis][1]);
+    const bool splits = (differ[0] | differ[1] | differ[2]) && cost < kInf;
+    if (splits ? leaf_is_cheaper(2, cost, box, may_leaf) : may_leaf) {
+      prims_[first] = p[small_index(v.hi[0][0])].id();
+      prims_[first + 1] = p[small_index(v.hi[0][1])].id();
+      return bvh_make_leaf(uint32_t(first), 2);
+    }
+    if (!splits) axis = 0;
+    Box lbox, rbox;
+    lbox.grow(v.lo[axis][0], v.hi[axis][0]);
+    rbox.grow(v.lo[axis][1], v.hi[axis][1]);
+    uint32_t node = alloc();
+    BvhNode& t = nodes_[node];
+    set_boxes(t, lbox, rbox);
+    prims_[first] = p[small_index(v.hi[axis][0])].id();
+    prims_[first + 1] = p[small_index(v.hi[axis][1])].id();
+    t.child[0] = bvh_make_leaf(uint32_t(first), 1);
+    t.child[1] = bvh_make_leaf(uint32_t(first + 1), 1);
+    return node;
+  }
+
   // The subtree over the sorted lists v (n primitives; their PrimRefs: p,
   // indexed as in the lists' w lanes), whose leaves take output slots
   // [first, first + n).
@@ -512,6 +584,7 @@ class Builder {
       return bvh_make_leaf(uint32_t(first), uint32_t(n));
     };
     if (n == 1) return leaf();
+    if (n == 2 && depth + 1 < kBvhStackSize - 2) return small_pair(v, p, first, box, may_leaf);
     int axis = 0, nl = n / 2;  // the median, where no split separates centroids
     if (depth + int(std::bit_width(unsigned(n - 1))) < kBvhStackSize - 2) {
       // The sweep on all three axes at once (lane a = axis a).
@@ -595,15 +668,16 @@ class Builder {
     return node;
   }
 
-  // Branch-free partition of src[b, e) into dst: the left side (bin ≤ last
-  // on `axis`) to dst[l, ...), the right side to dst[r, ...), both in their
-  // order in src. The boundary is known beforehand (from the bin counts), so
-  // each primitive is written once, to the end its side picks.
-  static void partition(const PrimRef* src, PrimRef* dst, size_t b, size_t e, size_t l, size_t r, const Binner& bn,
-                        int axis, int last) {
+  // Branch-free partition of src[b, e) into dst: the left side (test.left
+  // of the centroid on `axis`) to dst[l, ...), the right side to dst[r, ...),
+  // both in their order in src. The boundary is known beforehand (from the
+  // bin counts), so each primitive is written once, to the end its side
+  // picks.
+  static void partition(const PrimRef* src, PrimRef* dst, size_t b, size_t e, size_t l, size_t r,
+                        Binner::SideTest test, int axis) {
     for (size_t i = b; i < e; ++i) {
       const PrimRef& x = src[i];
-      size_t left = size_t(bn.bin(x.lo[axis] + x.hi[axis], axis) <= last);
+      size_t left = size_t(test.left(x.lo[axis] + x.hi[axis]));
       // dst[left ? l : r], as arithmetic: compilers turn the ?: into a
       // branch, mispredicted about every other primitive.
       dst[r ^ ((l ^ r) & (0 - left))] = x;
@@ -615,20 +689,20 @@ class Builder {
   // The same over a large node, in parallel: blocks count their left
   // primitives, then each partitions its part to where the blocks before it
   // end. The result is the serial partition's, whatever the thread count.
-  static void parallel_partition(const PrimRef* src, PrimRef* dst, size_t b, size_t e, size_t mid, const Binner& bn,
-                                 int axis, int last) {
+  static void parallel_partition(const PrimRef* src, PrimRef* dst, size_t b, size_t e, size_t mid,
+                                 Binner::SideTest test, int axis) {
     constexpr size_t kBlock = 8192;
     const size_t blocks = (e - b + kBlock - 1) / kBlock;
     std::vector<size_t> left_before(blocks + 1, 0);
     tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
       size_t i0 = b + k * kBlock, i1 = std::min(e, i0 + kBlock), nl = 0;
-      for (size_t i = i0; i < i1; ++i) nl += size_t(bn.bin(src[i].lo[axis] + src[i].hi[axis], axis) <= last);
+      for (size_t i = i0; i < i1; ++i) nl += size_t(test.left(src[i].lo[axis] + src[i].hi[axis]));
       left_before[k + 1] = nl;
     });
     for (size_t k = 0; k < blocks; ++k) left_before[k + 1] += left_before[k];
     tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
       size_t i0 = b + k * kBlock, i1 = std::min(e, i0 + kBlock);
-      partition(src, dst, i0, i1, b + left_before[k], mid + (i0 - b - left_before[k]), bn, axis, last);
+      partition(src, dst, i0, i1, b + left_before[k], mid + (i0 - b - left_before[k]), test, axis);
     });
   }
 
@@ -692,9 +766,9 @@ class Builder {
     for (int i = last + 1; i < nb; ++i) s.rbox.grow(bins.lo[axis][i], bins.hi[axis][i]);
     s.mid = b + nl;
     if (n >= kParallelBinning && parallel_)
-      parallel_partition(src, buf_[side ^ 1], b, e, s.mid, bn, axis, last);
+      parallel_partition(src, buf_[side ^ 1], b, e, s.mid, bn.side_test(axis, last), axis);
     else
-      partition(src, buf_[side ^ 1], b, e, b, s.mid, bn, axis, last);
+      partition(src, buf_[side ^ 1], b, e, b, s.mid, bn.side_test(axis, last), axis);
     // The children's centroid bounds, without a pass over them: a
     // primitive's box holds its centroid, so each side's centroids lie in the
     // union of its bins' boxes (doubled: centroid2), and in the parent's
@@ -844,34 +918,36 @@ Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options) {
     BuildArray<PrimRef> refs(n);
     PrimRef* rp = refs.get();
     auto make_refs = [&](size_t b, size_t e, RootBounds acc) {
-      for (size_t i = b; i < e; ++i) {
-        Vec3 lo, hi;
-        uint32_t id;
-        if (i < nt) {
-          const uint32_t* ix = scene.indices + 3 * i;
-          Vec3 a = scene.positions[ix[0]], b2 = scene.positions[ix[1]], c = scene.positions[ix[2]];
-          lo = vmin(a, vmin(b2, c));
-          hi = vmax(a, vmax(b2, c));
-          id = uint32_t(i);
-        } else {
-          const Sphere& s = scene.spheres[i - nt];
-          // A few ulps of slack for intersect_sphere's rounding near tangents.
-          float m = max(fabsf(s.center.x), max(fabsf(s.center.y), fabsf(s.center.z))) + fabsf(s.radius);
-          float r = fabsf(s.radius) + m * 0x1p-20f;
-          // Clamped to the finite range: a huge sphere's box would otherwise
-          // reach ±inf on both sides, its centroid NaN, and NaN makes the
-          // min/max reductions depend on how the work is split (the tree on
-          // the thread count). Nothing beyond FLT_MAX can be hit anyway.
-          const float big = 3.40282347e38f;
-          lo = vmax(s.center - Vec3{r, r, r}, Vec3{-big, -big, -big});
-          hi = vmin(s.center + Vec3{r, r, r}, Vec3{big, big, big});
-          id = uint32_t(i - nt) | kBvhSphereBit;
-        }
-        PrimRef& p = rp[i];
+      // Triangles (the first nt references), four lanes at a time.
+      auto load = [](const Vec3& v) { return f4{v.x, v.y, v.z, 0.f}; };
+      size_t i = b;
+      for (; i < std::min(e, nt); ++i) {
+        const uint32_t* ix = scene.indices + 3 * i;
+        f4 a = load(scene.positions[ix[0]]), b2 = load(scene.positions[ix[1]]), c = load(scene.positions[ix[2]]);
         // + 0: -0 becomes +0, so that no min or max has to choose between
         // the two zeros (its pick depends on the order, which in the
         // parallel binning depends on the thread count).
-        p.lo = f4{lo.x + 0.f, lo.y + 0.f, lo.z + 0.f, std::bit_cast<float>(id)};
+        f4 lo = min4(a, min4(b2, c)) + splat(0.f), hi = max4(a, max4(b2, c)) + splat(0.f);
+        rp[i].lo = (f4)((i4)lo | i4{0, 0, 0, int32_t(i)});
+        rp[i].hi = hi;
+        acc.box.grow(lo, hi);
+        acc.cbox.grow(lo + hi);
+      }
+      for (; i < e; ++i) {
+        const Sphere& s = scene.spheres[i - nt];
+        // A few ulps of slack for intersect_sphere's rounding near tangents.
+        float m = max(fabsf(s.center.x), max(fabsf(s.center.y), fabsf(s.center.z))) + fabsf(s.radius);
+        float r = fabsf(s.radius) + m * 0x1p-20f;
+        // Clamped to the finite range: a huge sphere's box would otherwise
+        // reach ±inf on both sides, its centroid NaN, and NaN makes the
+        // min/max reductions depend on how the work is split (the tree on
+        // the thread count). Nothing beyond FLT_MAX can be hit anyway.
+        const float big = 3.40282347e38f;
+        Vec3 lo = vmax(s.center - Vec3{r, r, r}, Vec3{-big, -big, -big});
+        Vec3 hi = vmin(s.center + Vec3{r, r, r}, Vec3{big, big, big});
+        uint32_t id = uint32_t(i - nt) | kBvhSphereBit;
+        PrimRef& p = rp[i];
+        p.lo = f4{lo.x + 0.f, lo.y + 0.f, lo.z + 0.f, std::bit_cast<float>(id)};  // + 0: as above
         p.hi = f4{hi.x + 0.f, hi.y + 0.f, hi.z + 0.f, 0.f};
         acc.box.grow(xyz(p.lo), p.hi);
         acc.cbox.grow(centroid2(p));
