@@ -4,7 +4,9 @@
 //   the sRGB decoding table against the standard formula;
 // - texture coordinates from OBJ (vt, v flipped as Mitsuba does) interpolated
 //   with the hit's own barycentrics: at any hit, uv is the affine function of
-//   the position that the file's vt encode;
+//   the position that the file's vt encode; meshes with and without uvs mixed
+//   in one scene keep them aligned, and diffuse, plastic and roughplastic all
+//   see the texture's value through SceneView::material();
 // - a textured quad facing the camera under a uniform environment: each
 //   pixel shows the texel its footprint covers (found by intersecting the
 //   pixel's centre ray with the plane here, not by Luz's uv code), within a
@@ -164,6 +166,84 @@ TEST_F(TextureUv, ObjCoordinatesInterpolateWithTheHitsBarycentrics) {
         EXPECT_NEAR(uv.x, 0.2f + 0.5f * p.x, 1e-6f) << tri << " " << a << " " << b;
         EXPECT_NEAR(uv.y, 1.f - (0.1f + 0.25f * p.y), 1e-6f) << tri << " " << a << " " << b;
       }
+}
+
+// Meshes with and without texture coordinates in one scene: a cube (none), a
+// textured rectangle, an untextured OBJ, then a textured OBJ. uvs must stay one
+// per position, each textured mesh's vertices carrying its own coordinates, and
+// every model a texture may colour (diffuse, plastic, roughplastic) must see the
+// texture's value at the hit through SceneView::material().
+TEST_F(TextureUv, MixedMeshesKeepTheirUvsAndEveryTexturableModelSeesTheTexture) {
+  write("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0.25 0.5\nvt 0.75 0.5\nvt 0.75 1\nvt 0.25 1\n"
+                    "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n");
+  Image tex;  // 2×1: left texel dark, right texel bright (linear values, written as sRGB PNG)
+  tex.width = 2;
+  tex.height = 1;
+  tex.rgb = {0.1f, 0.2f, 0.3f, 0.8f, 0.7f, 0.6f};
+  write_image((dir / "tex.png").string(), tex);
+  auto textured = [](const std::string& type, const std::string& name) {
+    return "<bsdf type=\"" + type + "\"><texture name=\"" + name +
+           "\" type=\"bitmap\"><string name=\"filename\" value=\"tex.png\"/>"
+           "<string name=\"filter_type\" value=\"nearest\"/></texture></bsdf>";
+  };
+  const std::string obj = "<shape type=\"obj\"><string name=\"filename\" value=\"quad.obj\"/>";
+  Scene s = load_mitsuba(
+      write("scene.xml", "<scene version=\"3.0.0\"><sensor type=\"perspective\"/>"
+                         "<shape type=\"cube\"/>"
+                         "<shape type=\"rectangle\">" + textured("diffuse", "reflectance") + "</shape>" +
+                         obj + "</shape>" +
+                         obj + textured("plastic", "diffuse_reflectance") + "</shape>" +
+                         obj + textured("roughplastic", "diffuse_reflectance") + "</shape>"
+                         "</scene>"),
+      {});
+  ASSERT_EQ(s.uvs.size(), s.positions.size());
+  const uint32_t cube = 24, rect = 4, quad = 4;  // vertices per mesh (the cube: 4 per face)
+  ASSERT_EQ(s.positions.size(), size_t(cube + rect + 3 * quad));
+  for (uint32_t k = 0; k < cube; ++k) EXPECT_EQ(s.uvs[k].x, 0.f);
+  const float rect_uv[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};  // Mitsuba's rectangle
+  for (uint32_t k = 0; k < rect; ++k) {
+    EXPECT_EQ(s.uvs[cube + k].x, rect_uv[k][0]);
+    EXPECT_EQ(s.uvs[cube + k].y, rect_uv[k][1]);
+  }
+  for (uint32_t k = 0; k < quad; ++k) EXPECT_EQ(s.uvs[cube + rect + k].x, 0.f);  // untextured OBJ: padding
+  const float quad_u[4] = {0.25f, 0.75f, 0.75f, 0.25f};
+  for (int m = 0; m < 2; ++m)
+    for (uint32_t k = 0; k < quad; ++k) {
+      const size_t at = cube + rect + quad * uint32_t(1 + m) + k;
+      EXPECT_EQ(s.uvs[at].x, quad_u[k]) << m << " " << k;
+      EXPECT_EQ(s.uvs[at].y, 1.f - (k < 2 ? 0.5f : 1.f)) << m << " " << k;  // v flipped
+    }
+  // A hit near each textured mesh's first vertex and one near its second:
+  // u = 0.25 or 0 reads the left texel, u = 0.75 or 1 - ε the right one.
+  SceneView v = s.view();
+  Image8 bytes = read_image8((dir / "tex.png").string());
+  auto texel = [&](int i, int c) { return float(srgb_decode(((bytes.rgba[size_t(i)] >> (8 * c)) & 255) / 255.0)); };
+  auto reflectance = [](const Bsdf& b) {
+    switch (b.type) {
+      case BsdfType::Diffuse: return b.diffuse.reflectance;
+      case BsdfType::SmoothPlastic: return b.smooth_plastic.diffuse_reflectance.value;
+      case BsdfType::RoughPlastic: return b.rough_plastic.diffuse_reflectance.value;
+      default: return Color{-1.f, -1.f, -1.f};
+    }
+  };
+  const uint32_t cube_tris = 12, rect_tris = 2, quad_tris = 2;
+  const uint32_t first_tri[3] = {cube_tris, cube_tris + rect_tris + quad_tris, cube_tris + rect_tris + 2 * quad_tris};
+  const BsdfType types[3] = {BsdfType::Diffuse, BsdfType::SmoothPlastic, BsdfType::RoughPlastic};
+  Ray ray;
+  for (int m = 0; m < 3; ++m)
+    for (int corner = 0; corner < 2; ++corner) {
+      Hit hit;
+      hit.prim = first_tri[m];
+      hit.u = corner == 0 ? 0.01f : 0.98f;  // near vertex 0, or near vertex 1
+      hit.v = 0.f;
+      Interaction it = v.interaction(ray, hit);
+      BsdfScratch scratch;
+      const Bsdf& b = v.material(it, hit, scratch);
+      ASSERT_EQ(b.type, types[m]);
+      EXPECT_NE(&b, &v.materials[it.material]) << "a textured material must be resolved into the scratch copy";
+      const Color r = reflectance(b);
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(r[c], texel(corner, c), 1e-6f) << m << " " << corner << " " << c;
+    }
 }
 
 // A 4×4 texture on Mitsuba's rectangle, seen square-on so that the rectangle
