@@ -404,6 +404,51 @@ TEST_F(MitsubaLegacy, CamelCaseNamesLoadAsTheirMitsuba3Spelling) {
   EXPECT_NEAR(ca.smooth_conductor.eta.value.z, 1.4f, 1e-6f);
 }
 
+// Mitsuba 0.5's <srgb> colours decode to linear RGB (hex and numbers; refused
+// in a Mitsuba 3 scene), and an OBJ's flipTexCoords="false" keeps vt.v as written.
+TEST_F(MitsubaLegacy, SrgbColoursAndFlipTexCoords) {
+  write("quad.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0.5 0.25\nvt 0.75 0.25\nvt 0.75 0.5\nf 1/1 2/2 3/3\n");
+  Image tex;
+  tex.width = tex.height = 1;
+  tex.rgb = {0.5f, 0.5f, 0.5f};
+  write_image((dir / "tex.png").string(), tex);
+  auto scene = [](const std::string& version, const std::string& colour, const std::string& flip) {
+    return "<scene version=\"" + version + "\">\n<sensor type=\"perspective\"/>\n"
+           "<shape type=\"obj\"><string name=\"filename\" value=\"quad.obj\"/>" + flip +
+           "<bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"bitmap\">"
+           "<string name=\"filename\" value=\"tex.png\"/></texture></bsdf></shape>\n"
+           "<shape type=\"rectangle\"><bsdf type=\"diffuse\">" + colour + "</bsdf></shape>\n</scene>\n";
+  };
+  Scene hex = load_mitsuba(write("a.xml", scene("0.5.0", "<srgb name=\"reflectance\" value=\"#ff8000\"/>",
+                                                "<boolean name=\"flipTexCoords\" value=\"false\"/>")),
+                           {});
+  const Color r = hex.materials[hex.tri_material.back()].diffuse.reflectance;
+  EXPECT_NEAR(r.x, 1.f, 1e-6f);
+  EXPECT_NEAR(r.y, srgb_decode(128 / 255.0), 1e-6);
+  EXPECT_EQ(r.z, 0.f);
+  EXPECT_NEAR(hex.uvs[0].y, 0.25f, 1e-6f);  // not flipped
+  EXPECT_NEAR(hex.uvs[2].y, 0.5f, 1e-6f);
+  Scene num = load_mitsuba(write("b.xml", scene("0.5.0", "<srgb name=\"reflectance\" value=\"0.5, 0.2, 0.9\"/>", "")),
+                           {});
+  const Color q = num.materials[num.tri_material.back()].diffuse.reflectance;
+  EXPECT_NEAR(q.x, srgb_decode(0.5), 1e-6);
+  EXPECT_NEAR(q.y, srgb_decode(0.2), 1e-6);
+  EXPECT_NEAR(q.z, srgb_decode(0.9), 1e-6);
+  EXPECT_NEAR(num.uvs[0].y, 0.75f, 1e-6f);  // flipped by default
+  try {
+    load_mitsuba(write("c.xml", scene("3.0.0", "<srgb name=\"reflectance\" value=\"#ffffff\"/>", "")), {});
+    ADD_FAILURE() << "<srgb> accepted in a Mitsuba 3 scene";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 4) << e.what();
+  }
+  try {
+    load_mitsuba(write("d.xml", scene("0.5.0", "<srgb name=\"reflectance\" value=\"#12345\"/>", "")), {});
+    ADD_FAILURE() << "a 5-digit hex colour accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 4) << e.what();
+  }
+}
+
 TEST_F(MitsubaLegacy, BadNamesAreErrorsWithTheirLine) {
   auto expect_error = [&](const std::string& text, int line, const std::string& problem) {
     std::string path = write("bad.xml", text);

@@ -208,11 +208,34 @@ class MitsubaParser {
     return {float(v[0]), float(v[1]), float(v[2])};
   }
 
+  // Mitsuba 0.5's <srgb>: "#rrggbb" or 1 or 3 numbers in [0, 1], sRGB-encoded,
+  // decoded to linear RGB (Mitsuba 3 has no such tag).
+  Color srgb_color(pugi::xml_node n, const std::string& v) const {
+    if (!legacy_names_) error(n, "<srgb> is a Mitsuba 0.5 tag; use <rgb> (linear values)");
+    double c[3];
+    if (!v.empty() && v[0] == '#') {
+      unsigned rgb = 0;
+      if (v.size() != 7 || std::from_chars(v.data() + 1, v.data() + 7, rgb, 16).ptr != v.data() + 7)
+        error(n, "'" + v + "' is not a colour of the form #rrggbb");
+      for (int k = 0; k < 3; ++k) c[k] = ((rgb >> (16 - 8 * k)) & 255u) / 255.0;
+    } else {
+      std::vector<double> x = numbers(n, v);
+      if (x.size() != 1 && x.size() != 3) error(n, "<srgb> needs #rrggbb, 1 or 3 numbers");
+      for (int k = 0; k < 3; ++k) c[k] = x[x.size() == 1 ? 0 : size_t(k)];
+    }
+    Color out;
+    for (int k = 0; k < 3; ++k) {
+      if (!(c[k] >= 0.0 && c[k] <= 1.0)) error(n, "<srgb> values must lie in [0, 1]");
+      out[k] = float(c[k] <= 0.04045 ? c[k] / 12.92 : std::pow((c[k] + 0.055) / 1.055, 2.4));
+    }
+    return out;
+  }
+
   // ---- properties of one plugin element ----
   // Elements that are named parameters of their parent (a nested <texture>
   // is one too: Props hands it out by name like a value).
   static inline const std::set<std::string> kPropertyTags = {
-      "integer", "float", "boolean", "string", "rgb", "spectrum", "point", "vector", "transform", "texture"};
+      "integer", "float", "boolean", "string", "rgb", "srgb", "spectrum", "point", "vector", "transform", "texture"};
   struct Props {
     const MitsubaParser* p;
     pugi::xml_node owner;
@@ -263,9 +286,10 @@ class MitsubaParser {
       return n ? p->attr(n, "value") : def;
     }
     Color get_color(const std::string& name, Color def) {
-      pugi::xml_node n = get(name, {"rgb", "spectrum", "float"});
+      pugi::xml_node n = get(name, {"rgb", "srgb", "spectrum", "float"});
       if (!n) return def;
       std::string v = p->attr(n, "value");
+      if (std::string(n.name()) == "srgb") return p->srgb_color(n, v);
       if (std::string(n.name()) == "spectrum" && v.find(':') != std::string::npos)
         p->error(n, "sampled spectra (wavelength:value) are not supported; give <rgb> or one value");
       std::vector<double> c = p->numbers(n, v);
@@ -921,6 +945,8 @@ class MitsubaParser {
       std::string file = p.get_string("filename", "");
       if (file.empty()) error(n, "obj shape needs a 'filename'");
       bool face_normals = p.get_bool("face_normals", false);
+      // Mitsuba flips OBJ's v by default (read_obj does); flip_tex_coords false keeps vt as written.
+      const bool flip_uv = p.get_bool("flip_tex_coords", true);
       p.check_all_used();
       fs::path full = fs::path(path_).parent_path() / file;
       std::error_code ec;
@@ -934,6 +960,8 @@ class MitsubaParser {
       if (!face_normals) nrm = std::move(mesh.normals);
       if (textured && mesh.texcoords.empty()) refuse_texture(("an OBJ mesh without texture coordinates ('" + file + "')").c_str());
       uv = std::move(mesh.texcoords);
+      if (!flip_uv)
+        for (Vec2& t : uv) t.y = 1.f - t.y;
       idx = std::move(mesh.indices);
     } else {
       error(n, "unknown shape '" + type + "' (supported: obj, rectangle, cube, sphere)");
