@@ -59,8 +59,6 @@ struct TinyTexture {
   double at(float u, float v) const { return texture_lookup(desc, texels.data(), table.data(), {u, v}).x * 255.0; }
 };
 
-class TempDir : public TempDirTest {};
-
 }  // namespace
 
 // 3×3 texture, values v(i, j) = 10 (3 j + i) + 5 (column i, row j from the top).
@@ -122,7 +120,7 @@ TEST(TextureLookup, SrgbDecodingFollowsTheStandardFormula) {
   EXPECT_NEAR(s.view().texture_value(0, {0.5f, 0.5f}).y, 128.0 / 255, 1e-6);
 }
 
-using TextureUv = TempDir;
+using TextureUv = TempDirTest;
 
 // A quad of two triangles whose vt are the affine map uv = (0.2 + 0.5 x,
 // 0.1 + 0.25 y) of the positions, listed in another order than the vertices
@@ -315,7 +313,7 @@ TEST_F(TextureUv, TexturedQuadShowsItsTexelsUnderUniformLight) {
 
 // ---- Mitsuba 0.5 names ----
 
-using MitsubaLegacy = TempDir;
+using MitsubaLegacy = TempDirTest;
 
 namespace {
 

@@ -226,7 +226,7 @@ class MitsubaParser {
     Color out;
     for (int k = 0; k < 3; ++k) {
       if (!(c[k] >= 0.0 && c[k] <= 1.0)) error(n, "<srgb> values must lie in [0, 1]");
-      out[k] = float(c[k] <= 0.04045 ? c[k] / 12.92 : std::pow((c[k] + 0.055) / 1.055, 2.4));
+      out[k] = float(srgb_to_linear(c[k]));
     }
     return out;
   }

@@ -16,6 +16,16 @@ LUZ_INLINE uint64_t mix64(uint64_t v) {
   return v;
 }
 
+// 32-bit integer hash, C. Wellons' "lowbias32".
+LUZ_INLINE uint32_t lowbias32(uint32_t k) {
+  k ^= k >> 16;
+  k *= 0x7feb352du;
+  k ^= k >> 15;
+  k *= 0x846ca68bu;
+  k ^= k >> 16;
+  return k;
+}
+
 LUZ_INLINE uint64_t hash_combine(uint64_t h, uint64_t v) {
   return mix64(h ^ (v + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2)));
 }

@@ -150,17 +150,8 @@ struct Sampler {
             min((sy + jy) / float(desc.strata_y), kOneMinusEpsilon)};
   }
 
-  // A third 32-bit seed for a 2D draw's dimension 1: the key's two halves
-  // remixed by C. Wellons' "lowbias32" integer hash.
-  LUZ_INLINE static uint32_t third_seed(uint32_t lo, uint32_t hi) {
-    uint32_t k = lo ^ (hi * 0x9e3779b9u);
-    k ^= k >> 16;
-    k *= 0x7feb352du;
-    k ^= k >> 15;
-    k *= 0x846ca68bu;
-    k ^= k >> 16;
-    return k;
-  }
+  // A third 32-bit seed for a 2D draw's dimension 1: the key's two halves remixed.
+  LUZ_INLINE static uint32_t third_seed(uint32_t lo, uint32_t hi) { return lowbias32(lo ^ (hi * 0x9e3779b9u)); }
 
   // A 1D value at dimension d; `kind` 0 for next_1d, 2 for aux_1d (1 is
   // next_2d's): the same dimension's kinds are independent streams.

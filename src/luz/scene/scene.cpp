@@ -73,11 +73,8 @@ uint32_t Scene::add_material(const Bsdf& b) {
 }
 
 uint32_t Scene::add_texture(TextureDesc desc, const std::vector<uint32_t>& image) {
-  if (srgb_table.empty())  // texture.h's srgb_to_linear, in double
-    for (int k = 0; k < 256; ++k) {
-      double c = k / 255.0;
-      srgb_table.push_back(float(c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4)));
-    }
+  if (srgb_table.empty())
+    for (int k = 0; k < 256; ++k) srgb_table.push_back(float(srgb_to_linear(k / 255.0)));
   if (textures.size() >= 32767) throw std::length_error("more than 32767 bitmap textures");
   if (texels.size() + image.size() > size_t(UINT32_MAX)) throw std::length_error("more than 2^32 texels in all textures");
   desc.offset = uint32_t(texels.size());

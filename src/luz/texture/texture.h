@@ -33,10 +33,9 @@ LUZ_INLINE uint32_t pack_rgba8(uint32_t r, uint32_t g, uint32_t b, uint32_t a = 
   return r | (g << 8) | (b << 16) | (a << 24);
 }
 
-// The standard sRGB decoding (IEC 61966-2-1) of a value in [0, 1].
-LUZ_INLINE float srgb_to_linear(float v) {
-  return v <= 0.04045f ? v * (1.f / 12.92f) : powf((v + 0.055f) * (1.f / 1.055f), 2.4f);
-}
+// The standard sRGB decoding (IEC 61966-2-1) of a value in [0, 1], in double:
+// for the loader (<srgb> colours) and the 256-entry table texels go through.
+LUZ_INLINE double srgb_to_linear(double v) { return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4); }
 
 // A coordinate brought to [0, 1) by wrapping; a non-finite one reads as 0
 // (it would otherwise become an out-of-range index).
