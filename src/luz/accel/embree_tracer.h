@@ -58,13 +58,14 @@ struct EmbreeTracer {
       hit.v = v;
       return;
     }
-    const bool first = u + v <= 1.f;
+    // Which half was hit is a coin toss per ray: selects, not a branch.
+    const float s = u + v;
+    const bool first = !(1.f < s);  // s <= 1
     float w[4];
-    if (first) {
-      w[0] = 1.f - u - v, w[1] = u, w[2] = 0.f, w[3] = v;
-    } else {
-      w[0] = 0.f, w[1] = 1.f - v, w[2] = u + v - 1.f, w[3] = 1.f - u;
-    }
+    w[0] = select_lt(1.f, s, 0.f, 1.f - u - v);
+    w[1] = select_lt(1.f, s, 1.f - v, u);
+    w[2] = select_lt(1.f, s, u + v - 1.f, 0.f);
+    w[3] = select_lt(1.f, s, 1.f - u, v);
     const int h = first ? 0 : 1;
     hit.prim = q.tri + uint32_t(h);
     hit.u = w[q.slot[h][0]];

@@ -2,6 +2,9 @@
 #pragma once
 
 #include <cstdint>
+#if defined(__SSE2__) && !defined(__CUDA_ARCH__)
+#include <emmintrin.h>
+#endif
 
 #if defined(__CUDACC__)
 #define LUZ_HOST_DEVICE __host__ __device__
@@ -35,6 +38,20 @@ inline constexpr float kInv4Pi = 0.07957747154594766788f;
 inline constexpr float kInfinity = __builtin_huge_valf();
 // Largest float strictly below one: what a [0,1) sample never exceeds.
 inline constexpr float kOneMinusEpsilon = 0x1.fffffep-1f;
+
+// x < y ? a : b without a branch, for conditions that are a coin toss per
+// sample (a mispredicted branch costs more than computing both sides). GCC
+// turns a plain float ?: into a branch on x86-64's SSE2 baseline; written on
+// one SSE lane, the compare gives a mask and the select is and/andnot/or in
+// the same registers. The GPU has a select instruction.
+LUZ_INLINE float select_lt(float x, float y, float a, float b) {
+#if defined(__CUDA_ARCH__) || !defined(__SSE2__)
+  return x < y ? a : b;
+#else
+  const __m128 m = _mm_cmplt_ss(_mm_set_ss(x), _mm_set_ss(y));
+  return _mm_cvtss_f32(_mm_or_ps(_mm_and_ps(m, _mm_set_ss(a)), _mm_andnot_ps(m, _mm_set_ss(b))));
+#endif
+}
 
 LUZ_INLINE float min(float a, float b) { return a < b ? a : b; }
 LUZ_INLINE float max(float a, float b) { return a > b ? a : b; }

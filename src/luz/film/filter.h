@@ -15,8 +15,12 @@ enum class FilterKind : uint32_t { Box, Tent, Gaussian };
 // One axis of the filter: u in [0,1) to an offset from the pixel centre.
 LUZ_INLINE float sample_filter_1d(FilterKind k, float u) {
   switch (k) {
-    case FilterKind::Tent:
-      return u < 0.5f ? -1.f + sqrtf(2.f * u) : 1.f - sqrtf(2.f - 2.f * u);
+    case FilterKind::Tent: {
+      // -1 + sqrt(2u) below the middle, 1 - sqrt(2 - 2u) above: one square
+      // root and two selects (the half is a coin toss: no branch to mispredict).
+      const float x = 1.f - sqrtf(select_lt(u, 0.5f, 2.f * u, 2.f - 2.f * u));
+      return select_lt(u, 0.5f, -x, x);
+    }
     case FilterKind::Gaussian: {
       constexpr float kSigma = 0.5f, kRadius = 2.f;
       // Truncated normal by inverting its CDF: erf(±R/(σ√2)) bounds.

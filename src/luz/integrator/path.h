@@ -117,7 +117,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     // Its weight: 1 for the camera ray, for the bsdf estimator and after a
     // delta sample; otherwise 0 for the light estimator (NEE counted it) and
     // the power heuristic for path.
-    const bool weigh = depth > 1 && !prev_delta && params.type != IntegratorType::Bsdf;
+    const bool weigh = (depth > 1) & !prev_delta & (params.type != IntegratorType::Bsdf);  // no branches
     Color Le{};
     float light_pdf = 0.f;
     Interaction it;

@@ -170,7 +170,7 @@ struct SceneView {
   }
 
   // Samples a point on emitter e as seen from `ref`. pdf is per solid angle.
-  LUZ_INLINE LightSample sample_emitter(uint32_t e, Vec3 ref, Vec2 u) const {
+  LUZ_FORCE_INLINE LightSample sample_emitter(uint32_t e, Vec3 ref, Vec2 u) const {
     LightSample ls;
     const Emitter& em = emitters[e];
     switch (em.type) {
