@@ -17,6 +17,8 @@ struct BvhBuildOptions {
   float intersection_cost = 1.f; // ... relative to one primitive test
   bool median_split = false;     // baseline: object median on the widest centroid axis
   bool full_sweep = false;       // reference: exact SAH sweep over sorted centroids at every node (slow)
+  bool clusters = true;          // above the small subtrees, bin clusters of primitives close in Morton
+                                 // order, not single primitives (faster; false: the primitive builder)
   int threads = 0;               // 0: the current TBB arena
 };
 
