@@ -306,6 +306,21 @@ void bin_range(const Binner& bn, const PrimRef* refs, size_t b, size_t e, Bins& 
   for (; i < e; ++i) add(bins, i);
 }
 
+// Parallel partitions work in blocks: the number of primitives of [b, e)
+// going left before each block (blocks + 1 prefix sums), counted in parallel.
+constexpr size_t kPartitionBlock = 8192;
+std::vector<size_t> left_before_blocks(const PrimRef* src, size_t b, size_t e, Binner::SideTest test, int axis) {
+  const size_t blocks = (e - b + kPartitionBlock - 1) / kPartitionBlock;
+  std::vector<size_t> left_before(blocks + 1, 0);
+  tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
+    size_t i0 = b + k * kPartitionBlock, i1 = std::min(e, i0 + kPartitionBlock), nl = 0;
+    for (size_t i = i0; i < i1; ++i) nl += size_t(test.left(src[i].lo[axis] + src[i].hi[axis]));
+    left_before[k + 1] = nl;
+  });
+  for (size_t k = 0; k < blocks; ++k) left_before[k + 1] += left_before[k];
+  return left_before;
+}
+
 class ClusterBuilder;
 
 // The builder. Primitive references live in two buffers: a node's are in
@@ -776,17 +791,10 @@ class Builder {
   // end. The result is the serial partition's, whatever the thread count.
   static void parallel_partition(const PrimRef* src, PrimRef* dst, size_t b, size_t e, size_t mid,
                                  Binner::SideTest test, int axis) {
-    constexpr size_t kBlock = 8192;
-    const size_t blocks = (e - b + kBlock - 1) / kBlock;
-    std::vector<size_t> left_before(blocks + 1, 0);
+    const std::vector<size_t> left_before = left_before_blocks(src, b, e, test, axis);
+    const size_t blocks = left_before.size() - 1;
     tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-      size_t i0 = b + k * kBlock, i1 = std::min(e, i0 + kBlock), nl = 0;
-      for (size_t i = i0; i < i1; ++i) nl += size_t(test.left(src[i].lo[axis] + src[i].hi[axis]));
-      left_before[k + 1] = nl;
-    });
-    for (size_t k = 0; k < blocks; ++k) left_before[k + 1] += left_before[k];
-    tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-      size_t i0 = b + k * kBlock, i1 = std::min(e, i0 + kBlock);
+      size_t i0 = b + k * kPartitionBlock, i1 = std::min(e, i0 + kPartitionBlock);
       partition(src, dst, i0, i1, b + left_before[k], mid + (i0 - b - left_before[k]), test, axis);
     });
   }
@@ -1233,17 +1241,10 @@ class ClusterBuilder {
   // The same over a large range, in parallel (the serial result).
   static size_t parallel_partition(const PrimRef* src, PrimRef* dst, size_t b, size_t e, Binner::SideTest test,
                                    int axis) {
-    constexpr size_t kBlock = 8192;
-    const size_t blocks = (e - b + kBlock - 1) / kBlock;
-    std::vector<size_t> left_before(blocks + 1, 0);
+    const std::vector<size_t> left_before = left_before_blocks(src, b, e, test, axis);
+    const size_t blocks = left_before.size() - 1;
     tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-      size_t i0 = b + k * kBlock, i1 = std::min(e, i0 + kBlock), nl = 0;
-      for (size_t i = i0; i < i1; ++i) nl += size_t(test.left(src[i].lo[axis] + src[i].hi[axis]));
-      left_before[k + 1] = nl;
-    });
-    for (size_t k = 0; k < blocks; ++k) left_before[k + 1] += left_before[k];
-    tbb::parallel_for(size_t(0), blocks, [&](size_t k) {
-      size_t i0 = b + k * kBlock, i1 = std::min(e, i0 + kBlock);
+      size_t i0 = b + k * kPartitionBlock, i1 = std::min(e, i0 + kPartitionBlock);
       partition(src, dst, i0, i1, b + left_before[k], e - 1 - (i0 - b - left_before[k]), test, axis);
     });
     return b + left_before[blocks];
