@@ -100,6 +100,65 @@ TEST(Sampler, Sobol2DEqualsPerDimensionDefinition) {
     }
 }
 
+// The bit work of the draws done in SSE lanes and 64-bit halves against the
+// scalar definitions, on random words and the extremes.
+TEST(Sampler, PackedBitOperationsEqualScalarOnes) {
+  std::vector<uint32_t> words = {0u, 1u, 0x80000000u, 0xffffffffu, 0x000000ffu, 0xff000000u, 0x01234567u};
+  for (uint32_t k = 0; k < 2000; ++k) words.push_back(lowbias32(k * 0x9e3779b9u + 17u));
+  auto unit = [](uint32_t x) { return to_unit_float32(reverse_bits32(x)); };
+  for (size_t k = 0; k + 3 < words.size(); ++k) {
+    const uint32_t a = words[k], b = words[k + 1], c = words[k + 2], d = words[k + 3];
+    const Vec2 p = reversed_unit_pair(a, b);
+    EXPECT_EQ(p.x, unit(a));
+    EXPECT_EQ(p.y, unit(b));
+    Vec2 ab, cd;
+    reversed_unit_quad(a, b, c, d, ab, cd);
+    EXPECT_EQ(ab.x, unit(a));
+    EXPECT_EQ(ab.y, unit(b));
+    EXPECT_EQ(cd.x, unit(c));
+    EXPECT_EQ(cd.y, unit(d));
+    const uint64_t pp = sobol_pascal_lanes(uint64_t(b) << 32 | a);
+    EXPECT_EQ(uint32_t(pp), sobol_pascal(a));
+    EXPECT_EQ(uint32_t(pp >> 32), sobol_pascal(b));
+  }
+}
+
+// The CPU renderer's shortcuts must not change a single number: draws from a
+// pixel's cached seeds (inside and beyond the cached dimensions, every kind)
+// and the paired 2D draw equal the plain draws, for every sampler.
+TEST(Sampler, SeedCacheAndPairedDrawsGiveTheSameNumbers) {
+  for (SamplerType t : {SamplerType::Independent, SamplerType::Stratified, SamplerType::Sobol})
+    for (uint32_t px : {0u, 5u, 1023u}) {
+      const SamplerDesc desc = make_sampler_desc(t, 16, 3 + px);
+      const uint32_t cached = 13;
+      std::vector<DimSeeds> storage(cached);
+      for (uint32_t i = 0; i < 40; ++i) {
+        Sampler plain, fast;
+        plain.start(desc, px, 7, i);
+        fast.start(desc, px, 7, 0);
+        fast.cache_seeds(storage.data(), cached);
+        fast.set_sample(i);
+        EXPECT_EQ(fast.num_seeds, t == SamplerType::Sobol ? cached : 0u);
+        for (uint32_t d = 0; d < 2 * cached; ++d) {
+          const Vec2 a = plain.draw_2d(d), b = fast.draw_2d(d);
+          EXPECT_EQ(a.x, b.x) << int(t) << " " << i << " " << d;
+          EXPECT_EQ(a.y, b.y) << int(t) << " " << i << " " << d;
+          EXPECT_EQ(plain.draw_1d(d, 0), fast.draw_1d(d, 0)) << int(t) << " " << i << " " << d;
+          EXPECT_EQ(plain.aux_1d(d), fast.aux_1d(d)) << int(t) << " " << i << " " << d;
+          for (const Sampler* s : {&plain, &fast}) {
+            Vec2 p0, p1;
+            s->draw_2d_pair(d, d + 5, p0, p1);
+            const Vec2 q1 = plain.draw_2d(d + 5);
+            EXPECT_EQ(p0.x, a.x);
+            EXPECT_EQ(p0.y, a.y);
+            EXPECT_EQ(p1.x, q1.x);
+            EXPECT_EQ(p1.y, q1.y);
+          }
+        }
+      }
+    }
+}
+
 // aux_1d(d): a second 1D stream at dimension d, a pure function that leaves
 // `dim` alone, independent of next_1d at d, and (Sobol, power-of-two spp) one
 // value per stratum like the regular draws.

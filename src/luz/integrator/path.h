@@ -164,9 +164,12 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     // their hash chains run side by side; drawn at their points of use, each
     // waited for the one before (~5% of the time on the bundled box, 1 thread).
     const bool nee = use_nee && scene.num_emitters > 0 && !bsdf.delta_only();
-    Vec2 u_light2 = nee ? sampler.draw_2d(base_dim) : Vec2{};
+    Vec2 u_light2, u_bsdf2;
+    if (nee)
+      sampler.draw_2d_pair(base_dim, base_dim + 2, u_light2, u_bsdf2);
+    else
+      u_bsdf2 = sampler.draw_2d(base_dim + 2);
     const float u_bsdf = bsdf.plain_diffuse() ? 0.f : sampler.draw_1d(base_dim + 1, 0);  // Lambert: no lobe choice
-    const Vec2 u_bsdf2 = sampler.draw_2d(base_dim + 2);
     const float u_rr = depth >= params.rr_depth ? sampler.draw_1d(base_dim + 3, 0) : 0.f;
 
     // Next-event estimation (not at delta-only vertices: f is 0 there).
