@@ -1,12 +1,13 @@
 // The branch-free geometry helpers: the robust ray offset (Wächter & Binder)
 // against a plain per-axis statement of the method and against its defining
 // property (the moved point lies on n's side of p, a few ulps away), and
-// select_lt against the ternary it replaces.
+// select_lt and swap_unless_lt against the ternaries they replace.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <utility>
 
 #include "luz/geometry/shapes.h"
 #include "luz/math/hash.h"
@@ -98,5 +99,11 @@ TEST(Geometry, SelectLtIsTheTernary) {
     for (float y : xs) {
       EXPECT_EQ(bits_of(select_lt(x, y, 1.25f, -7.f)), bits_of(x < y ? 1.25f : -7.f)) << x << " < " << y;
       EXPECT_EQ(bits_of(select_lt(x, y, -0.f, nan)), bits_of(x < y ? -0.f : nan)) << x << " < " << y;
+      for (auto [a, b] : {std::pair{1.25f, -7.f}, std::pair{-0.f, nan}, std::pair{inf, 0.f}}) {
+        float p, q;
+        swap_unless_lt(x, y, a, b, p, q);
+        EXPECT_EQ(bits_of(p), bits_of(x < y ? a : b)) << x << " < " << y;
+        EXPECT_EQ(bits_of(q), bits_of(x < y ? b : a)) << x << " < " << y;
+      }
     }
 }

@@ -58,18 +58,14 @@ struct EmbreeTracer {
       hit.v = v;
       return;
     }
-    // Which half was hit is a coin toss per ray: selects, not a branch.
-    const float s = u + v;
-    const bool first = !(1.f < s);  // s <= 1
-    float w[4];
-    w[0] = select_lt(1.f, s, 0.f, 1.f - u - v);
-    w[1] = select_lt(1.f, s, 1.f - v, u);
-    w[2] = select_lt(1.f, s, u + v - 1.f, 0.f);
-    w[3] = select_lt(1.f, s, 1.f - u, v);
-    const int h = first ? 0 : 1;
+    // Which half was hit is a coin toss per ray: no branch, no selects. Both
+    // halves' weights of the quad's four vertices are computed, and the half
+    // (the compare as an integer) indexes them.
+    const float w[2][4] = {{1.f - u - v, u, 0.f, v}, {0.f, 1.f - v, u + v - 1.f, 1.f - u}};
+    const int h = int(1.f < u + v);
     hit.prim = q.tri + uint32_t(h);
-    hit.u = w[q.slot[h][0]];
-    hit.v = w[q.slot[h][1]];
+    hit.u = w[h][q.slot[h][0]];
+    hit.v = w[h][q.slot[h][1]];
   }
 
   bool intersect(const Ray& ray, Hit& hit) const {

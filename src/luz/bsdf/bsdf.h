@@ -282,12 +282,26 @@ struct Bsdf : BsdfComponent {
   // generic switch made the Cornell benchmark 13% slower).
   LUZ_INLINE bool plain_diffuse() const { return type == BsdfType::Diffuse && !blend && !has_back; }
 
+  // f, pdf and sample of a plain_diffuse() BSDF (the integrator, having
+  // asked plain_diffuse() once per vertex, calls these or the _general ones).
+  LUZ_INLINE Color f_diffuse(Vec3 wo, Vec3 wi) const {
+    if (!(wo.z > 0.f || (two_sided && wo.z < 0.f)) || wo.z * wi.z <= 0.f) return {};
+    return diffuse.reflectance * kInvPi;
+  }
+  LUZ_INLINE float pdf_diffuse(Vec3 wo, Vec3 wi) const {
+    if (!(wo.z > 0.f || (two_sided && wo.z < 0.f)) || wo.z * wi.z <= 0.f) return 0.f;
+    return fabsf(wi.z) * kInvPi;
+  }
+  LUZ_INLINE BsdfSample sample_diffuse(Vec3 wo, float u1, Vec2 u2) const {
+    float flip;
+    if (!orient(wo, flip)) return {};
+    BsdfSample s = diffuse.sample(wo, u1, u2);
+    s.wi.z *= flip;
+    return s;
+  }
+
   LUZ_INLINE Color f(Vec3 wo, Vec3 wi, TransportMode mode = TransportMode::Radiance) const {
-    if (plain_diffuse()) {
-      if (!(wo.z > 0.f || (two_sided && wo.z < 0.f)) || wo.z * wi.z <= 0.f) return {};
-      return diffuse.reflectance * kInvPi;
-    }
-    return f_general(wo, wi, mode);
+    return plain_diffuse() ? f_diffuse(wo, wi) : f_general(wo, wi, mode);
   }
   LUZ_BSDF_GENERAL Color f_general(Vec3 wo, Vec3 wi, TransportMode mode) const {
     if (use_back(wo)) return component_f(back, wo, wi, mode);
@@ -296,13 +310,7 @@ struct Bsdf : BsdfComponent {
            component_f(second, wo, wi, mode) * blend_weight;
   }
 
-  LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
-    if (plain_diffuse()) {
-      if (!(wo.z > 0.f || (two_sided && wo.z < 0.f)) || wo.z * wi.z <= 0.f) return 0.f;
-      return fabsf(wi.z) * kInvPi;
-    }
-    return pdf_general(wo, wi);
-  }
+  LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const { return plain_diffuse() ? pdf_diffuse(wo, wi) : pdf_general(wo, wi); }
   LUZ_BSDF_GENERAL float pdf_general(Vec3 wo, Vec3 wi) const {
     if (use_back(wo)) return component_pdf(back, wo, wi);
     if (!blend) return component_pdf(*this, wo, wi);
@@ -311,14 +319,7 @@ struct Bsdf : BsdfComponent {
 
   // u1 picks a lobe, u2 the direction within it.
   LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2, TransportMode mode = TransportMode::Radiance) const {
-    if (plain_diffuse()) {
-      float flip;
-      if (!orient(wo, flip)) return {};
-      BsdfSample s = diffuse.sample(wo, u1, u2);
-      s.wi.z *= flip;
-      return s;
-    }
-    return sample_general(wo, u1, u2, mode);
+    return plain_diffuse() ? sample_diffuse(wo, u1, u2) : sample_general(wo, u1, u2, mode);
   }
   LUZ_BSDF_GENERAL BsdfSample sample_general(Vec3 wo, float u1, Vec2 u2, TransportMode mode) const {
     if (use_back(wo)) return component_sample(back, wo, u1, u2, mode);

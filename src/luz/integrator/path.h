@@ -156,20 +156,23 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     // transmission, each with its own robust offset.
     const Vec3 n_out = dot(ray.d, it.ng) < 0.f ? it.ng : -it.ng;
     const Vec3 origin = offset_ray_origin(it.p, n_out);
-    const bool transmissive = bsdf.has_transmission();
+    // Asked once: the Lambertian case (every Cornell box wall) then skips the
+    // general model's dispatch and queries in f, pdf and sample.
+    const bool plain = bsdf.plain_diffuse();
+    const bool transmissive = !plain && bsdf.has_transmission();
 
     // This vertex's random numbers, drawn up front at fixed dimensions
     // (base_dim + 0: light 2D, + 1: lobe 1D, + 2: direction 2D, + 3: Russian
     // roulette 1D), only those that are used. Drawing them together lets
     // their hash chains run side by side; drawn at their points of use, each
     // waited for the one before (~5% of the time on the bundled box, 1 thread).
-    const bool nee = use_nee && scene.num_emitters > 0 && !bsdf.delta_only();
+    const bool nee = use_nee && scene.num_emitters > 0 && (plain || !bsdf.delta_only());
     Vec2 u_light2, u_bsdf2;
     if (nee)
       sampler.draw_2d_pair(base_dim, base_dim + 2, u_light2, u_bsdf2);
     else
       u_bsdf2 = sampler.draw_2d(base_dim + 2);
-    const float u_bsdf = bsdf.plain_diffuse() ? 0.f : sampler.draw_1d(base_dim + 1, 0);  // Lambert: no lobe choice
+    const float u_bsdf = plain ? 0.f : sampler.draw_1d(base_dim + 1, 0);  // Lambert: no lobe choice
     const float u_rr = depth >= params.rr_depth ? sampler.draw_1d(base_dim + 3, 0) : 0.f;
 
     // Next-event estimation (not at delta-only vertices: f is 0 there).
@@ -187,7 +190,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       LightSample ls = scene.sample_emitter(e, it.p, u_light2);
       if (ls.pdf > 0.f) {
         Vec3 wi = frame.to_local(ls.wi);
-        Color f = bsdf.f(wo, wi);
+        const Color f = plain ? bsdf.f_diffuse(wo, wi) : bsdf.f_general(wo, wi, TransportMode::Radiance);
         // Geometric side test too: no light through a reflecting surface, and
         // for transmissive ones the geometric and shading sides must agree.
         const float side = dot(ls.wi, n_out);
@@ -206,7 +209,8 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
           // Joins L if the segment is unoccluded (ShadowQuery).
           float pmf = scene.emitter_pmf[e];
           float light_pdf = pmf * ls.pdf;
-          float w = use_mis ? power_heuristic(light_pdf, bsdf.pdf(wo, wi)) : 1.f;
+          const float bsdf_pdf = plain ? bsdf.pdf_diffuse(wo, wi) : bsdf.pdf_general(wo, wi);
+          float w = use_mis ? power_heuristic(light_pdf, bsdf_pdf) : 1.f;
           sq.ray = shadow;
           sq.contrib = beta * f * ls.radiance * (fabsf(wi.z) * w / light_pdf);
           sq.active = true;
@@ -215,7 +219,8 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     }
 
     // BSDF sampling.
-    BsdfSample bs = bsdf.sample(wo, u_bsdf, u_bsdf2);
+    BsdfSample bs = plain ? bsdf.sample_diffuse(wo, u_bsdf, u_bsdf2)
+                          : bsdf.sample_general(wo, u_bsdf, u_bsdf2, TransportMode::Radiance);
     if (!bs.valid) {
       st.alive = false;
       return;

@@ -124,7 +124,8 @@ LUZ_INLINE Vec2 reversed_unit_pair(uint32_t a, uint32_t b) {
   return {to_unit_float32(reverse_bits32(a)), to_unit_float32(reverse_bits32(b))};
 #else
   // bswap64 puts a's bytes, reversed, in the low lane and b's in the next.
-  const __m128 f = unit_floats(reverse_bits_in_bytes(_mm_cvtsi64_si128(int64_t(__builtin_bswap64(uint64_t(a) << 32 | b)))));
+  const __m128i v = _mm_cvtsi64_si128(int64_t(__builtin_bswap64(uint64_t(a) << 32 | b)));
+  const __m128 f = unit_floats(reverse_bits_in_bytes(v));
   return {_mm_cvtss_f32(f), _mm_cvtss_f32(_mm_shuffle_ps(f, f, 1))};
 #endif
 }

@@ -23,11 +23,13 @@ LUZ_INLINE Vec2 square_to_uniform_disk(Vec2 u) {
   float a = 2.f * u.x - 1.f, b = 2.f * u.y - 1.f;
   if (a == 0.f && b == 0.f) return {0.f, 0.f};
   // φ = (π/4)(b/a), or π/2 - (π/4)(a/b) (then cos and sin swap places).
-  // Written as selects, not branches (select_lt).
+  // Written as selects, not branches (the case is a coin toss per sample).
   const float a2 = a * a, b2 = b * b;  // the case: a2 > b2 ("wide")
-  const float r = select_lt(b2, a2, a, b), t = select_lt(b2, a2, b, a);
-  Vec2 cs = cos_sin_quarter((kPi / 4.f) * (t / r));
-  return {r * select_lt(b2, a2, cs.x, cs.y), r * select_lt(b2, a2, cs.y, cs.x)};
+  float r, t, c, s;
+  swap_unless_lt(b2, a2, a, b, r, t);
+  const Vec2 cs = cos_sin_quarter((kPi / 4.f) * (t / r));
+  swap_unless_lt(b2, a2, cs.x, cs.y, c, s);
+  return {r * c, r * s};
 }
 LUZ_INLINE float uniform_disk_pdf(Vec2 p) { return (p.x * p.x + p.y * p.y <= 1.f) ? kInvPi : 0.f; }
 
