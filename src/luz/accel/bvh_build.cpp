@@ -27,12 +27,14 @@
 // primitives).
 //
 // Where the time goes (Sponza, 66k triangles, one thread, perf): the small
-// subtrees 45% (their sorts 9%), the clusters' binning, sweeps and
-// partitions 26% (with gathering the small subtrees' primitives), the Morton
-// sort and the clusters 19%, the PrimRefs 2%, copying the nodes out 2%. The
-// primitive builder takes 1.35× as long there (1.6× on the staircase):
-// binning 32%, the small subtrees 33%, partition and bin sweeps 19%, the
-// depth-first renumbering 5%.
+// subtrees 42% (their sorts 10%), the clusters' binning, sweeps and
+// partitions 29% (with gathering the small subtrees' primitives), the Morton
+// sort and the clusters 21%, the PrimRefs 3%, copying the nodes out 3%.
+// The primitive builder took 1.35× as long on Sponza (1.6× on the
+// staircase) before kClusterSweep: binning 32%, the small subtrees 33%,
+// partition and bin sweeps 19%, the depth-first renumbering 5%. On the
+// staircase (263k), luz_bench's build on freshly mapped memory takes 1.4×
+// as long as the same build on memory the allocator reuses (page faults).
 #include "luz/accel/bvh_build.h"
 
 #include <tbb/blocked_range.h>
@@ -1006,9 +1008,15 @@ struct RootBounds {
 // is split into its primitives, which only binning them one by one
 // separates. The clusters are binned and partitioned like primitives (their
 // boxes and centres; each counts for its primitives in the SAH), with about
-// two per bin in small nodes. A node of at most kSweepMax primitives
-// gathers its clusters' primitives and builds its subtree exactly, as the
-// primitive builder does.
+// two per bin in small nodes. A node of at most kClusterSweep (16)
+// primitives gathers its clusters' primitives and builds its subtree
+// exactly, as the primitive builder does; so does one of at most kSweepMax
+// (32) in clusters of fewer than two primitives on average, where binning
+// saves little and loses more (long crossing primitives, which the rules
+// above leave alone). Against handing over every node of at most 32:
+// 9% fewer instructions on Sponza, 11% on the staircase, SAH cost -0.01%
+// and -0.08% (only 16: +0.03% and -0.16%, but +1.2% on the crossing
+// triangles of LooseCentroidBoundsStillSplitBySah).
 //
 // Measured against the primitive builder (SAH cost averaged over 9..32
 // bins, as it varies by a few % from one bin count to the next): Sponza
@@ -1024,7 +1032,8 @@ constexpr int kClusterLevel = 7;                   // cells at most 2^-7 of the 
 constexpr int kClusterPrefix = 3 * kClusterLevel;  // ... whose codes share this many bits
 constexpr float kLargeFactor = 2.f;                // half areas: a primitive / the rest of its cluster
 constexpr float kDissolve = 1024.f;                // half areas: a cluster / its cell
-static_assert(kClusterMax <= kSweepMax);
+constexpr int kClusterSweep = 16;                  // nodes of at most this many primitives: exact
+static_assert(kClusterMax <= kClusterSweep && kClusterSweep <= kSweepMax);
 
 // v's kMortonBits bits spread to every third bit (bit i to bit 3i).
 constexpr std::array<uint32_t, 1 << kMortonBits> make_spread() {
@@ -1073,21 +1082,22 @@ void radix_pass(const uint64_t* src, uint64_t* dst, size_t n, size_t block, int 
   });
 }
 
-// Reorders keys[0, m), whose codes are equal (more than kClusterMax
-// centroids within one cell of the grid), by Morton codes over their own
-// centroid bounds, and sets the depths d[1, m) of the splits between them
-// (32 + their common prefix depth: deeper than any split of the grid).
-// Coinciding centroids are left as they are.
-void refine_run(uint64_t* keys, size_t m, const PrimRef* refs, uint8_t* d) {
+// Reorders sorted[0, m), primitives whose codes are equal (more than
+// kClusterMax centroids within one cell of the grid), by Morton codes over
+// their own centroid bounds, and sets the depths d[1, m) of the splits
+// between them (32 + their common prefix depth: deeper than any split of
+// the grid). keys[0, m): scratch. Coinciding centroids are left as they
+// are. (On the sorted primitives, not through the keys' indices: the
+// staircase's 3,600 runs then read memory in order, not at random.)
+void refine_run(uint64_t* keys, PrimRef* sorted, size_t m, uint8_t* d) {
   Box cb;
-  for (size_t i = 0; i < m; ++i) cb.grow(centroid2(refs[uint32_t(keys[i])]));
+  for (size_t i = 0; i < m; ++i) cb.grow(centroid2(sorted[i]));
   const Binner grid(cb, 1 << kMortonBits);
   if (grid.degenerate()) return;
-  for (size_t i = 0; i < m; ++i) {
-    const uint32_t k = uint32_t(keys[i]);
-    keys[i] = uint64_t(morton(grid.bin(centroid2(refs[k])))) << 32 | k;
-  }
+  for (size_t i = 0; i < m; ++i) keys[i] = uint64_t(morton(grid.bin(centroid2(sorted[i])))) << 32 | i;
   std::sort(keys, keys + m);
+  const std::vector<PrimRef> run(sorted, sorted + m);
+  for (size_t i = 0; i < m; ++i) sorted[i] = run[uint32_t(keys[i])];
   for (size_t i = 1; i < m; ++i) d[i] = uint8_t(32 + std::countl_zero(code_of(keys[i - 1]) ^ code_of(keys[i])));
 }
 
@@ -1098,20 +1108,21 @@ struct Cut {
   uint8_t depth;
 };
 
-// Cuts keys[0, n) (sorted; the codes of refs' centroids) into clusters,
-// appended to `cuts`. The cluster that starts at b is the largest
-// radix-tree cell [b, e) within the limits: no more than kClusterMax
-// primitives, no shallower than kClusterPrefix bits (the single primitive
-// [b, b + 1) always qualifies). [b, e) is a cell when every split inside it
-// (between i - 1 and i, at the depth of their codes' common prefix, d[i])
-// is deeper than the splits at its ends, d[b] and d[e]: the top-down cut of
-// the radix tree, in one pass. Runs of more than kClusterMax equal codes
-// are first ordered within their cell (refine_run); coinciding centroids
+// Cuts the primitives sorted[0, n), in the order of their keys[0, n) (the
+// sorted codes of their centroids), into clusters, appended to `cuts`. The
+// cluster that starts at b is the largest radix-tree cell [b, e) within the
+// limits: no more than kClusterMax primitives, no shallower than
+// kClusterPrefix bits (the single primitive [b, b + 1) always qualifies).
+// [b, e) is a cell when every split inside it (between i - 1 and i, at the
+// depth of their codes' common prefix, d[i]) is deeper than the splits at
+// its ends, d[b] and d[e]: the top-down cut of the radix tree, in one pass.
+// Runs of more than kClusterMax equal codes are first reordered within
+// their cell (refine_run; the keys are then scratch); coinciding centroids
 // split nowhere, and more than kClusterMax of them become clusters of one,
 // for the binned SAH. On more than one thread, each pass runs in blocks;
 // the greedy cut restarts at splits shallower than kClusterPrefix, which
 // are always cuts, so the result is the serial one.
-void make_clusters(uint64_t* keys, const PrimRef* refs, size_t n, std::vector<Cut>& cuts, bool parallel) {
+void make_clusters(uint64_t* keys, PrimRef* sorted, size_t n, std::vector<Cut>& cuts, bool parallel) {
   // d[i]: the common-prefix depth of codes i - 1 and i in their 32-bit word
   // (the codes have 2 leading zeros, so d ≥ 2; 32 where equal); 0 at the
   // ends.
@@ -1137,7 +1148,7 @@ void make_clusters(uint64_t* keys, const PrimRef* refs, size_t n, std::vector<Cu
     i = j + 1;
   }
   for_blocks(runs.size(), 1, parallel, [&](size_t r, size_t, size_t) {
-    refine_run(keys + runs[r].first, runs[r].second - runs[r].first, refs, d + runs[r].first);
+    refine_run(keys + runs[r].first, sorted + runs[r].first, runs[r].second - runs[r].first, d + runs[r].first);
   });
 
   // The greedy cut of [b, e) (b: a cut) into `out`.
@@ -1268,7 +1279,9 @@ class ClusterBuilder {
   uint32_t node(size_t cb, size_t ce, int side, size_t pb, size_t pe, const Box& box, const Box& cbox, int depth,
                 uint32_t at, bool exact_cbox = false) {
     const size_t n = pe - pb, m = ce - cb;
-    if (n <= size_t(kSweepMax)) {
+    if (n <= size_t(kClusterSweep) || (n <= size_t(kSweepMax) && 2 * m > n)) {  // see kClusterSweep
+      // One cluster: its primitives are already contiguous in sorted_.
+      if (m == 1) return small_.small_subtree(sorted_ + cl_[side][cb].id(), int(n), pb, box, depth, n <= max_leaf_, at);
       PrimRef p[kSweepMax];
       gather(cb, ce, side, p);
       return small_.small_subtree(p, int(n), pb, box, depth, n <= max_leaf_, at);
@@ -1390,13 +1403,13 @@ void build_clustered(PrimRef* refs, PrimRef* sorted, size_t n, const RootBounds&
     std::swap(keys, tmp);
   }
 
-  // The clusters; the primitives in their order.
-  std::vector<Cut> cuts;
-  make_clusters(keys, refs, n, cuts, parallel);
-  cuts.push_back({uint32_t(n), 0});
+  // The primitives in their order; the clusters.
   for_blocks(n, block, parallel, [&](size_t b, size_t e, size_t) {
     for (size_t i = b; i < e; ++i) sorted[i] = refs[uint32_t(keys[i])];  // independent loads: they overlap
   });
+  std::vector<Cut> cuts;
+  make_clusters(keys, sorted, n, cuts, parallel);
+  cuts.push_back({uint32_t(n), 0});
 
   // The clusters' references: cluster_refs(k0, k1, emit) calls emit(s, e,
   // box) for the clusters of cuts[k0, k1), in order, after the rules on
