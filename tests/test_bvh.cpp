@@ -925,11 +925,10 @@ void add_tri(std::vector<Vec3>& p, std::vector<uint32_t>& idx, Vec3 a, Vec3 b, V
 }
 
 // The clustered build against the primitive builder on Sponza: about the
-// same SAH cost (measured: 68.17 vs 68.10 at 32 bins, 68.17 since nodes of
-// at most 16 primitives, or 32 in clusters of fewer than 2 on average, are
-// built exactly; averaged over 9..32
-// bins, 68.10 vs 68.21, and +0.4% on Sponza tiled 4×, +0.3% on the
-// staircase, +0.6% on the Stanford bunny).
+// same SAH cost (measured: 68.17 vs 68.10 at 32 bins, also since nodes of at
+// most 16 primitives, or 32 in clusters of fewer than 2 on average, are
+// built exactly; averaged over 9..32 bins, 68.10 vs 68.21, and +0.4% on
+// Sponza tiled 4×, +0.3% on the staircase, +0.6% on the Stanford bunny).
 TEST(Bvh, ClustersCloseToPrimitiveBuilder) {
   SceneCase& c = sponza();
   BvhBuildOptions prim;

@@ -308,6 +308,38 @@ void bin_range(const Binner& bn, const PrimRef* refs, size_t b, size_t e, Bins& 
   for (; i < e; ++i) add(bins, i);
 }
 
+// refs[b, e) binned (nb bins): in parallel blocks from kParallelBinning
+// references on.
+template <bool kClusters = false>
+Bins bin_all(const Binner& bn, const PrimRef* refs, size_t b, size_t e, int nb) {
+  Bins bins;
+  bins.clear(nb);
+  if (e - b < kParallelBinning) {
+    bin_range<kClusters>(bn, refs, b, e, bins, nb);
+    return bins;
+  }
+  return tbb::parallel_reduce(
+      tbb::blocked_range<size_t>(b, e, 8192), bins,
+      [&](const tbb::blocked_range<size_t>& r, Bins acc) {
+        bin_range<kClusters>(bn, refs, r.begin(), r.end(), acc, nb);
+        return acc;
+      },
+      [nb](Bins x, const Bins& y) {
+        x.merge(y, nb);
+        return x;
+      });
+}
+
+// When every axis put all centroids into one bin: the centroid bounds a node
+// gets from its parent's bins may be far looser than its centroids' (a
+// primitive much larger than the rest). True, with the exact bounds of
+// refs[b, e), when they differ from cbox (then bin again over them).
+bool tighter_centroid_bounds(const PrimRef* refs, size_t b, size_t e, const Box& cbox, Box& exact) {
+  for (size_t i = b; i < e; ++i) exact.grow(centroid2(refs[i]));
+  i4 same = (xyz(exact.lo) == xyz(cbox.lo)) & (xyz(exact.hi) == xyz(cbox.hi));
+  return !(same[0] & same[1] & same[2]);
+}
+
 // Parallel partitions work in blocks: the number of primitives of [b, e)
 // going left before each block (blocks + 1 prefix sums), counted in parallel.
 constexpr size_t kPartitionBlock = 8192;
@@ -820,35 +852,15 @@ class Builder {
       return unsplittable(b, e, side, cbox, may_leaf, s);
     }
     const PrimRef* src = buf_[side];
-    Bins bins;
-    bins.clear(nb);
-    if (n >= kParallelBinning) {
-      bins = tbb::parallel_reduce(
-          tbb::blocked_range<size_t>(b, e, 8192), bins,
-          [&](const tbb::blocked_range<size_t>& r, Bins acc) {
-            bin_range(bn, src, r.begin(), r.end(), acc, nb);
-            return acc;
-          },
-          [nb](Bins x, const Bins& y) {
-            x.merge(y, nb);
-            return x;
-          });
-    } else {
-      bin_range(bn, src, b, e, bins, nb);
-    }
+    Bins bins = bin_all(bn, src, b, e, nb);
     int axis, last;
     float best;
     if (!sweep_bins(bins, nb, bn.axis_ok(), axis, last, best)) {
-      // Every axis put all centroids into one bin (extreme clustering). The
-      // centroid bounds a child gets from its parent's bins may be far
-      // looser than its centroids' (a primitive much larger than the rest):
-      // bin again over the exact ones before giving up.
-      if (!exact_cbox) {
-        Box exact;
-        for (size_t i = b; i < e; ++i) exact.grow(centroid2(src[i]));
-        i4 same = (xyz(exact.lo) == xyz(cbox.lo)) & (xyz(exact.hi) == xyz(cbox.hi));
-        if (!(same[0] & same[1] & same[2])) return split(b, e, side, box, exact, depth, may_leaf, s, true);
-      }
+      // Extreme clustering: bin again over the exact centroid bounds
+      // (tighter_centroid_bounds) before giving up.
+      Box exact;
+      if (!exact_cbox && tighter_centroid_bounds(src, b, e, cbox, exact))
+        return split(b, e, side, box, exact, depth, may_leaf, s, true);
       return unsplittable(b, e, side, cbox, may_leaf, s);
     }
     if (leaf_is_cheaper(size_t(n), best, box, may_leaf)) return false;
@@ -1293,32 +1305,14 @@ class ClusterBuilder {
     Binner bn(cbox, nb);
     if (bn.degenerate()) return fallback(cb, ce, side, pb, pe, box, depth, at);
     const PrimRef* src = cl_[side];
-    Bins bins;
-    bins.clear(nb);
-    if (m >= kParallelBinning) {
-      bins = tbb::parallel_reduce(
-          tbb::blocked_range<size_t>(cb, ce, 8192), bins,
-          [&](const tbb::blocked_range<size_t>& r, Bins acc) {
-            bin_range<true>(bn, src, r.begin(), r.end(), acc, nb);
-            return acc;
-          },
-          [nb](Bins x, const Bins& y) {
-            x.merge(y, nb);
-            return x;
-          });
-    } else {
-      bin_range<true>(bn, src, cb, ce, bins, nb);
-    }
+    Bins bins = bin_all<true>(bn, src, cb, ce, nb);
     int axis, last;
     float best;
     if (!sweep_bins(bins, nb, bn.axis_ok(), axis, last, best)) {
       // As in Builder::split: bin again over the exact centroid bounds.
-      if (!exact_cbox) {
-        Box exact;
-        for (size_t i = cb; i < ce; ++i) exact.grow(centroid2(src[i]));
-        i4 same = (xyz(exact.lo) == xyz(cbox.lo)) & (xyz(exact.hi) == xyz(cbox.hi));
-        if (!(same[0] & same[1] & same[2])) return node(cb, ce, side, pb, pe, box, exact, depth, at, true);
-      }
+      Box exact;
+      if (!exact_cbox && tighter_centroid_bounds(src, cb, ce, cbox, exact))
+        return node(cb, ce, side, pb, pe, box, exact, depth, at, true);
       return fallback(cb, ce, side, pb, pe, box, depth, at);
     }
     Box lbox, rbox;
