@@ -1,9 +1,11 @@
 // The branch-free geometry helpers: the robust ray offset (Wächter & Binder)
 // against a plain per-axis statement of the method and against its defining
 // property (the moved point lies on n's side of p, a few ulps away), and
-// select_lt and swap_unless_lt against the ternaries they replace.
+// select_lt and swap_unless_lt against the ternaries they replace; the
+// ray-sphere test against the closed-form roots, for any direction length.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -106,4 +108,39 @@ TEST(Geometry, SelectLtIsTheTernary) {
         EXPECT_EQ(bits_of(q), bits_of(x < y ? b : a)) << x << " < " << y;
       }
     }
+}
+
+// intersect_sphere(o, d) for a direction of any length (shadow rays run
+// along the unnormalised segment, t in (0, 1)): the roots of |o + t d - c|² =
+// r², in double, for a unit d and the same d scaled; tmax clips either.
+TEST(Geometry, SphereHitsAtTheRootsForAnyDirectionLength) {
+  const Vec3 c{0.3f, -0.2f, 5.f};
+  const float r = 1.5f;
+  int hits = 0;
+  for (int k = 0; k < 200; ++k) {
+    const float a = 0.02f * float(k), b = 0.013f * float(k);
+    const Vec3 o{std::sin(a) * 3.f, std::cos(b) * 2.f, -1.f + 0.05f * float(k)};
+    const Vec3 unit =
+        normalize(Vec3{c.x - o.x + 0.9f * std::sin(3.f * a), c.y - o.y + 0.8f * std::cos(5.f * b), c.z - o.z});
+    for (float scale : {1.f, 0.01f, 7.3f, 300.f}) {
+      const Vec3 d = unit * scale;
+      // Roots in double: A t² + 2 B t + C = 0.
+      const double A = double(d.x) * d.x + double(d.y) * d.y + double(d.z) * d.z;
+      const double fx = double(o.x) - c.x, fy = double(o.y) - c.y, fz = double(o.z) - c.z;
+      const double B = fx * d.x + fy * d.y + fz * d.z, C = fx * fx + fy * fy + fz * fz - double(r) * r;
+      const double disc = B * B - A * C;
+      const float t = intersect_sphere(c, r, o, d, kInfinity);
+      const double t0 = (-B - std::sqrt(std::max(disc, 0.0))) / A, t1 = (-B + std::sqrt(std::max(disc, 0.0))) / A;
+      const double expect = disc < 0.0 ? -1.0 : t0 > 0.0 ? t0 : t1 > 0.0 ? t1 : -1.0;
+      if (expect < 0.0) {
+        EXPECT_LT(t, 0.f) << k << " " << scale;
+        continue;
+      }
+      ++hits;
+      // Compared in scene units (t · |d|): the rounding of o and d.
+      EXPECT_NEAR(double(t) * scale, expect * scale, 1e-5 * (1.0 + expect * scale)) << k << " " << scale;
+      EXPECT_LT(intersect_sphere(c, r, o, d, float(expect) * 0.999f), float(expect) * 0.999f) << k << " " << scale;
+    }
+  }
+  EXPECT_GT(hits, 400);
 }

@@ -78,17 +78,19 @@ LUZ_INLINE Vec3 offset_ray_origin(Vec3 p, Vec3 n) {
 }
 
 // Ray-sphere intersection, numerically careful form (Haines et al., "Precision
-// Improvements for Ray/Sphere Intersection", Ray Tracing Gems ch. 7). d must be
-// unit length. Returns the nearest t in (0, tmax), or a negative value.
+// Improvements for Ray/Sphere Intersection", Ray Tracing Gems ch. 7), for any
+// direction length (shadow rays run from 0 to 1 along the unnormalised
+// segment). Returns the nearest t in (0, tmax), or a negative value.
 LUZ_INLINE float intersect_sphere(Vec3 center, float radius, Vec3 o, Vec3 d, float tmax) {
   Vec3 f = o - center;
-  float b = -dot(f, d);
-  Vec3 l = f + b * d;
+  const float a = dot(d, d);
+  float b = -dot(f, d);  // a · (t of the closest approach)
+  Vec3 l = f + (b / a) * d;
   float disc = radius * radius - dot(l, l);
   if (disc < 0.f) return -1.f;
   float c = dot(f, f) - radius * radius;
-  float q = b + copysignf(sqrtf(disc), b);
-  float t0 = c / q, t1 = q;
+  float q = b + copysignf(sqrtf(a * disc), b);
+  float t0 = c / q, t1 = q / a;
   if (t0 > t1) {
     float tmp = t0;
     t0 = t1;

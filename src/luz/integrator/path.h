@@ -85,6 +85,24 @@ struct ShadowQuery {
   bool active = false;
 };
 
+// A vertex's random numbers that do not depend on what the ray hits: light
+// 2D, BSDF direction 2D and Russian roulette 1D (the lobe choice is drawn
+// only at a non-Lambertian vertex). path_li draws them before the
+// closest-hit query of the ray that finds the vertex, so on the CPU their
+// hash chains run while the traversal waits on memory.
+struct VertexRandom {
+  Vec2 light, dir;
+  float rr = 0.f;
+};
+
+LUZ_FORCE_INLINE VertexRandom draw_vertex_random(const Sampler& sampler, int depth, const IntegratorParams& params) {
+  const uint32_t base_dim = kCameraDims + uint32_t(depth - 1) * kDimsPerVertex;
+  VertexRandom r;
+  sampler.draw_2d_pair(base_dim, base_dim + 2, r.light, r.dir);
+  if (depth >= params.rr_depth) r.rr = sampler.draw_1d(base_dim + 3, 0);
+  return r;
+}
+
 LUZ_INLINE PathState path_start(const Ray& ray) {
   PathState st;
   st.ray = ray;
@@ -97,8 +115,9 @@ LUZ_INLINE PathState path_start(const Ray& ray) {
 // BSDF sampling for the next ray, Russian roulette. st.alive turns false
 // when the path ends. The same code runs in path_li and in the wavefront's
 // shade kernel.
+// `u`: this vertex's draw_vertex_random.
 LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool found, const Hit& hit, Sampler& sampler,
-                            const IntegratorParams& params, ShadowQuery& sq) {
+                                  const IntegratorParams& params, const VertexRandom& u, ShadowQuery& sq) {
   sq.active = false;
   const bool use_nee = params.type != IntegratorType::Bsdf;
   const bool use_mis = params.type == IntegratorType::Path;
@@ -161,19 +180,13 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     const bool plain = bsdf.plain_diffuse();
     const bool transmissive = !plain && bsdf.has_transmission();
 
-    // This vertex's random numbers, drawn up front at fixed dimensions
-    // (base_dim + 0: light 2D, + 1: lobe 1D, + 2: direction 2D, + 3: Russian
-    // roulette 1D), only those that are used. Drawing them together lets
-    // their hash chains run side by side; drawn at their points of use, each
-    // waited for the one before (~5% of the time on the bundled box, 1 thread).
+    // This vertex's random numbers at fixed dimensions (base_dim + 0: light
+    // 2D, + 1: lobe 1D, + 2: direction 2D, + 3: Russian roulette 1D).
     const bool nee = use_nee && scene.num_emitters > 0 && (plain || !bsdf.delta_only());
-    Vec2 u_light2, u_bsdf2;
-    if (nee)
-      sampler.draw_2d_pair(base_dim, base_dim + 2, u_light2, u_bsdf2);
-    else
-      u_bsdf2 = sampler.draw_2d(base_dim + 2);
+    Vec2 u_light2 = u.light;
+    const Vec2 u_bsdf2 = u.dir;
     const float u_bsdf = plain ? 0.f : sampler.draw_1d(base_dim + 1, 0);  // Lambert: no lobe choice
-    const float u_rr = depth >= params.rr_depth ? sampler.draw_1d(base_dim + 3, 0) : 0.f;
+    const float u_rr = u.rr;
 
     // Next-event estimation (not at delta-only vertices: f is 0 there).
     if (nee) {
@@ -200,19 +213,20 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
           shadow.o = side > 0.f ? origin : offset_ray_origin(it.p, -n_out);
           shadow.d = ls.wi;
           if (ls.dist < kInfinity) {
+            // The segment between the two offset ends (Wächter–Binder: no
+            // shrink needed), unnormalised: t in (0, 1), no square root or
+            // division before the query can start.
             Vec3 target = offset_ray_origin(ls.p, dot(ls.n, ls.wi) < 0.f ? ls.n : -ls.n);
-            Vec3 d = target - shadow.o;
-            float dist = length(d);
-            shadow.d = d / dist;
-            shadow.tmax = dist;  // both ends offset (Wächter–Binder): no shrink needed
+            shadow.d = target - shadow.o;
+            shadow.tmax = 1.f;
           }
           // Joins L if the segment is unoccluded (ShadowQuery).
           float pmf = scene.emitter_pmf[e];
           float light_pdf = pmf * ls.pdf;
           const float bsdf_pdf = plain ? bsdf.pdf_diffuse(wo, wi) : bsdf.pdf_general(wo, wi);
-          float w = use_mis ? power_heuristic(light_pdf, bsdf_pdf) : 1.f;
+          const float w_over_pdf = use_mis ? power_heuristic_over_a(light_pdf, bsdf_pdf) : 1.f / light_pdf;
           sq.ray = shadow;
-          sq.contrib = beta * f * ls.radiance * (fabsf(wi.z) * w / light_pdf);
+          sq.contrib = beta * f * ls.radiance * (fabsf(wi.z) * w_over_pdf);
           sq.active = true;
         }
       }
@@ -264,9 +278,10 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
   while (st.alive) {
     Hit hit;
     ++rays;
+    const VertexRandom u = draw_vertex_random(sampler, st.depth, params);
     bool found = tracer.intersect(st.ray, hit);
     ShadowQuery sq;
-    path_vertex(scene, st, found, hit, sampler, params, sq);
+    path_vertex(scene, st, found, hit, sampler, params, u, sq);
     if (sq.active) {
       ++rays;
       if (!tracer.occluded(sq.ray)) st.L += sq.contrib;

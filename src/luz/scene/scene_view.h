@@ -187,9 +187,12 @@ struct SceneView {
         float d2 = length_squared(d);
         ls.dist = sqrtf(d2);
         ls.wi = d / ls.dist;
-        float cos_l = -dot(ls.n, ls.wi);
-        if (cos_l <= 0.f || em.area <= 0.f) return ls;  // back of a one-sided emitter
-        ls.pdf = d2 / (cos_l * em.area);
+        // cos θ_l · dist, from d itself: the pdf d² / (cos θ_l · area) =
+        // d² · dist / (cos_dist · area) then waits for one square root, not
+        // for the normalised direction too.
+        float cos_dist = -dot(ls.n, d);
+        if (cos_dist <= 0.f || em.area <= 0.f) return ls;  // back of a one-sided emitter
+        ls.pdf = d2 * ls.dist / (cos_dist * em.area);
         ls.radiance = em.radiance;
         return ls;
       }

@@ -60,7 +60,8 @@ LUZ_INLINE uint32_t wf_intersect(const WavefrontParams& p, uint32_t i) {
 LUZ_INLINE bool wf_shade(const WavefrontParams& p, uint32_t i) {
   PathState& st = p.state[i];
   if (!st.alive) return false;
-  path_vertex(p.pass.scene, st, p.found[i] != 0, p.hit[i], p.sampler[i], p.pass.integrator, p.shadow[i]);
+  path_vertex(p.pass.scene, st, p.found[i] != 0, p.hit[i], p.sampler[i], p.pass.integrator,
+              draw_vertex_random(p.sampler[i], st.depth, p.pass.integrator), p.shadow[i]);
   return st.alive;
 }
 
