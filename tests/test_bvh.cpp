@@ -705,6 +705,15 @@ TEST(Bvh, SahCloseToFullSweep) {
   }
 }
 
+// A triangle whose bounding box is [c - d, c + d] (d > 0): its centroid is exactly c.
+void add_centred_triangle(std::vector<Vec3>& p, std::vector<uint32_t>& idx, Vec3 c, Vec3 d) {
+  const uint32_t base = uint32_t(p.size());
+  p.push_back(c + d);
+  p.push_back(c - d);
+  p.push_back(c + Vec3{d.x, -d.y, 0.f});
+  idx.insert(idx.end(), {base, base + 1, base + 2});
+}
+
 // Subtrees of at most 32 primitives are built apart (presorted lists, an
 // exact sweep at every node): on scenes that small the tree is the full-sweep
 // reference's, node for node, also with centroids that tie on one axis or
@@ -724,13 +733,7 @@ TEST(Bvh, SmallSubtreesMatchFullSweep) {
         Vec3 c{grid(1024.f), grid(1024.f), grid(1024.f)};
         if (variant % 3 == 1) c.x = float(i % 3) * 0.25f;            // ties on x
         if (variant % 3 == 2 && i >= n / 3) c = {0.5f, 0.5f, 0.5f};  // coinciding
-        Vec3 d{0x1p-10f + grid(64.f), 0x1p-10f + grid(64.f), 0x1p-10f + grid(64.f)};
-        // Box [c - d, c + d]: centroid exactly c.
-        uint32_t base = uint32_t(p.size());
-        p.push_back(c + d);
-        p.push_back(c - d);
-        p.push_back(c + Vec3{d.x, -d.y, 0.f});
-        idx.insert(idx.end(), {base, base + 1, base + 2});
+        add_centred_triangle(p, idx, c, Vec3{0x1p-10f + grid(64.f), 0x1p-10f + grid(64.f), 0x1p-10f + grid(64.f)});
       }
       s.add_mesh(p, {}, idx, 0, nullptr);
       s.compile();
@@ -749,6 +752,41 @@ TEST(Bvh, SmallSubtreesMatchFullSweep) {
       EXPECT_DOUBLE_EQ(bvh_sah_cost(b), bvh_sah_cost(bf)) << name;
     }
   }
+}
+
+// Pairs (built without the sweep, also as the children of a split that
+// leaves one or two primitives a side, without the lists' partition) are
+// the full sweep's, node for node and leaf order included: split on the
+// first axis on which their centroids differ, in that axis's order, also
+// where that is z, or where the later axes order them the other way; with
+// coinciding centroids (axis 3), in the primitives' order.
+TEST(Bvh, SmallPairsMatchFullSweepNodeForNode) {
+  for (int n : {2, 3, 4})
+    for (int axis = 0; axis < 4; ++axis)
+      for (uint32_t max_leaf : {1u, 8u}) {
+        Scene s;
+        std::vector<Vec3> p;
+        std::vector<uint32_t> idx;
+        for (int i = 0; i < n; ++i) {
+          // Equal centroids before `axis`, descending on it, ascending after.
+          float c[3];
+          for (int a = 0; a < 3; ++a) c[a] = a < axis ? 0.f : a == axis ? float(4 * (n - 1 - i)) : float(4 * i);
+          add_centred_triangle(p, idx, Vec3{c[0], c[1], c[2]}, Vec3{1.f, 1.f, 1.f});
+        }
+        s.add_mesh(p, {}, idx, 0, nullptr);
+        s.compile();
+        std::string name = "n=" + std::to_string(n) + " axis " + std::to_string(axis) + " max leaf " +
+                           std::to_string(max_leaf);
+        BvhBuildOptions opt, full;
+        full.full_sweep = true;
+        opt.max_leaf_size = full.max_leaf_size = max_leaf;
+        Bvh b = build_bvh(s.view(), opt), bf = build_bvh(s.view(), full);
+        check_structure(name.c_str(), s, b, opt);
+        EXPECT_EQ(b.prims, bf.prims) << name;
+        ASSERT_EQ(b.nodes.size(), bf.nodes.size()) << name;
+        EXPECT_EQ(std::memcmp(b.nodes.data(), bf.nodes.data(), b.nodes.size() * sizeof(BvhNode)), 0) << name;
+        EXPECT_EQ(b.max_depth, bf.max_depth) << name;
+      }
 }
 
 // A node's bins are spread over centroid bounds taken from its parent's bins

@@ -308,17 +308,17 @@ void bin_range(const Binner& bn, const PrimRef* refs, size_t b, size_t e, Bins& 
   for (; i < e; ++i) add(bins, i);
 }
 
-// refs[b, e) binned (nb bins): in parallel blocks from kParallelBinning
-// references on.
+// refs[b, e) binned (nb bins) into `bins`: in parallel blocks from
+// kParallelBinning references on. (An out parameter: returned, the 3 KiB
+// of bins were copied at every node, 2.5% of the build.)
 template <bool kClusters = false>
-Bins bin_all(const Binner& bn, const PrimRef* refs, size_t b, size_t e, int nb) {
-  Bins bins;
+void bin_all(const Binner& bn, const PrimRef* refs, size_t b, size_t e, int nb, Bins& bins) {
   bins.clear(nb);
   if (e - b < kParallelBinning) {
     bin_range<kClusters>(bn, refs, b, e, bins, nb);
-    return bins;
+    return;
   }
-  return tbb::parallel_reduce(
+  bins = tbb::parallel_reduce(
       tbb::blocked_range<size_t>(b, e, 8192), bins,
       [&](const tbb::blocked_range<size_t>& r, Bins acc) {
         bin_range<kClusters>(bn, refs, r.begin(), r.end(), acc, nb);
@@ -595,10 +595,10 @@ class Builder {
 
   // The sorted lists of a small node: on axis a, lo[a][k] and hi[a][k] are
   // the box of the primitive with the k-th smallest centroid (ties: by
-  // position in the buffer). lo's w lane holds the centroid's tie rank on a
-  // (how many centroids are strictly smaller: equal centroids share it, and
-  // no split may fall between them), hi's w lane the primitive's index in
-  // the subtree. A child's lists are a contiguous part of its parent's.
+  // position in the buffer). lo's w lane holds the centroid on a (twice the
+  // centre: no split may fall between equal ones), hi's w lane the
+  // primitive's index in the subtree. A child's lists are a contiguous part
+  // of its parent's.
   struct SmallSet {
     f4 lo[3][kSweepMax], hi[3][kSweepMax];
   };
@@ -616,10 +616,10 @@ class Builder {
     return __builtin_shufflevector(xy, zz, 0, 1, 4, 4) + __builtin_shufflevector(xy, zz, 2, 3, 5, 5);
   }
 
-  // The three lists' tie ranks at position k (lanes 0..2).
-  static i4 tie_ranks(const SmallView& v, int k) {
-    i4 w = __builtin_shufflevector((i4)v.lo[0][k], (i4)v.lo[1][k], 3, 7, 3, 7);
-    return __builtin_shufflevector(w, (i4)v.lo[2][k], 0, 1, 7, 7);
+  // The three lists' centroids at position k (lanes 0..2).
+  static f4 centroids(const SmallView& v, int k) {
+    f4 w = __builtin_shufflevector(v.lo[0][k], v.lo[1][k], 3, 7, 3, 7);
+    return __builtin_shufflevector(w, v.lo[2][k], 0, 1, 7, 7);
   }
 
   // The child reference for the n ≤ kSweepMax primitives p[0, n) (bounds
@@ -640,24 +640,23 @@ class Builder {
     }
     SmallSet set;
     for (int i = 0; i < n; ++i) {
-      // tie: centroids strictly smaller; pos: that plus equal ones earlier
-      // (lanes 0..2: the axes). Counted four at a time in lt[a] and eq[a];
-      // the block holding i counts only the equal ones before it.
+      // pos: the centroids before i's in the sorted order, smaller ones and
+      // equal ones earlier in p (lanes 0..2: the axes), counted four at a
+      // time: ≤ in the blocks before i's, < in those after it.
       const f4 ci[3] = {splat(cen[0][i / 4][i % 4]), splat(cen[1][i / 4][i % 4]), splat(cen[2][i / 4][i % 4])};
-      i4 lt[3] = {}, eq[3] = {};
+      i4 cnt[3] = {};
       const int own = i / 4;
       for (int k = 0; k < own; ++k)
-        for (int a = 0; a < 3; ++a) lt[a] -= cen[a][k] < ci[a], eq[a] -= cen[a][k] == ci[a];
+        for (int a = 0; a < 3; ++a) cnt[a] -= cen[a][k] <= ci[a];
       const i4 before = i4{0, 1, 2, 3} < i4{i % 4, i % 4, i % 4, i % 4};
-      for (int a = 0; a < 3; ++a) lt[a] -= cen[a][own] < ci[a], eq[a] -= (cen[a][own] == ci[a]) & before;
+      for (int a = 0; a < 3; ++a) cnt[a] -= (cen[a][own] < ci[a]) | ((cen[a][own] == ci[a]) & before);
       for (int k = own + 1; k < blocks; ++k)
-        for (int a = 0; a < 3; ++a) lt[a] -= cen[a][k] < ci[a];
-      const i4 tie = sum_lanes3(lt[0], lt[1], lt[2]);
-      const i4 pos = tie + sum_lanes3(eq[0], eq[1], eq[2]);
-      f4 lo = (f4)(((i4)p[i].lo & i4{-1, -1, -1, 0}) | i4{0, 0, 0, -1});
-      f4 hi = (f4)((i4)p[i].hi | i4{0, 0, 0, i});
+        for (int a = 0; a < 3; ++a) cnt[a] -= cen[a][k] < ci[a];
+      const i4 pos = sum_lanes3(cnt[0], cnt[1], cnt[2]);
+      f4 lo = xyz(p[i].lo);
+      const f4 hi = (f4)((i4)p[i].hi | i4{0, 0, 0, i});
       for (int a = 0; a < 3; ++a) {
-        lo[3] = std::bit_cast<float>(tie[a]);
+        lo[3] = ci[a][0];
         set.lo[a][pos[a]] = lo;
         set.hi[a][pos[a]] = hi;
       }
@@ -675,49 +674,66 @@ class Builder {
     return root;
   }
 
-  // small_node for two primitives (the commonest size by far), without the
-  // sweeps and their set-up. Its result is the sweep's: the one split there
-  // is (a box each side) costs the same on every axis on which the
-  // centroids differ, so the sweep takes the first such axis, or none (the
-  // costs are not below infinity, or no axis separates the centroids): a
-  // leaf if allowed, else the median split on axis 0.
-  uint32_t small_pair(const SmallView& v, const PrimRef* p, size_t first, const Box& box, int depth, bool may_leaf,
-                      Block& block) {
-    const i4 differ = tie_ranks(v, 0) != tie_ranks(v, 1);
-    int axis = differ[0] ? 0 : differ[1] ? 1 : 2;
+  // small_node for two primitives (the commonest size by far), given their
+  // entries in any list, without the sweeps and their set-up. Its result is
+  // the sweep's: the one split there is (a box each side) costs the same on
+  // every axis on which the centroids differ, so the sweep takes the first
+  // such axis, or none (the costs are not below infinity, or no axis
+  // separates the centroids): a leaf if allowed, else the median split on
+  // axis 0. Either way in the order of that axis's list: by centroid, ties
+  // by index.
+  uint32_t small_pair(f4 lo0, f4 hi0, f4 lo1, f4 hi1, const PrimRef* p, size_t first, const Box& box, int depth,
+                      bool may_leaf, Block& block) {
+    const f4 c0 = xyz(lo0) + xyz(hi0), c1 = xyz(lo1) + xyz(hi1);
+    const i4 differ = c0 != c1;
     // The same areas and sum as the sweep (half_areas3 per lane; x·1 = x).
-    const float cost = half_area(v.lo[axis][0], v.hi[axis][0]) + half_area(v.lo[axis][1], v.hi[axis][1]);
+    const float cost = half_area(lo0, hi0) + half_area(lo1, hi1);
     const bool splits = (differ[0] | differ[1] | differ[2]) && cost < kInf;
-    if (splits ? leaf_is_cheaper(2, cost, box, may_leaf) : may_leaf) {
-      out_.prims[first] = p[small_index(v.hi[0][0])].id();
-      out_.prims[first + 1] = p[small_index(v.hi[0][1])].id();
-      return bvh_make_leaf(uint32_t(first), 2);
-    }
-    if (!splits) axis = 0;
+    const bool leaf = splits ? leaf_is_cheaper(2, cost, box, may_leaf) : may_leaf;
+    const int axis = !splits || leaf ? 0 : differ[0] ? 0 : differ[1] ? 1 : 2;
+    if (c1[axis] < c0[axis] || (c1[axis] == c0[axis] && small_index(hi1) < small_index(hi0)))
+      std::swap(lo0, lo1), std::swap(hi0, hi1);
+    out_.prims[first] = p[small_index(hi0)].id();
+    out_.prims[first + 1] = p[small_index(hi1)].id();
+    if (leaf) return bvh_make_leaf(uint32_t(first), 2);
     Box lbox, rbox;
-    lbox.grow(v.lo[axis][0], v.hi[axis][0]);
-    rbox.grow(v.lo[axis][1], v.hi[axis][1]);
+    lbox.grow(lo0, hi0);
+    rbox.grow(lo1, hi1);
     uint32_t node = block.take(depth);
     BvhNode& t = out_.nodes[node];
     set_boxes(t, lbox, rbox);
-    out_.prims[first] = p[small_index(v.hi[axis][0])].id();
-    out_.prims[first + 1] = p[small_index(v.hi[axis][1])].id();
     t.child[0] = bvh_make_leaf(uint32_t(first), 1);
     t.child[1] = bvh_make_leaf(uint32_t(first + 1), 1);
     return node;
   }
 
+  // The subtree of one or two primitives, given their entries lo/hi[0, n)
+  // in a list (small_node without the other lists).
+  uint32_t small_few(const f4* lo, const f4* hi, int n, const PrimRef* p, size_t first, const Box& box, int depth,
+                     bool may_leaf, Block& block) {
+    if (n == 2) return small_pair(lo[0], hi[0], lo[1], hi[1], p, first, box, depth, may_leaf, block);
+    out_.prims[first] = p[small_index(hi[0])].id();
+    return bvh_make_leaf(uint32_t(first), 1);
+  }
+
   // The subtree over the sorted lists v (n primitives; their PrimRefs: p,
   // indexed as in the lists' w lanes), whose leaves take output slots
-  // [first, first + n).
+  // [first, first + n). Single primitives and pairs, half the calls, are
+  // dispatched here, in the caller, without small_sweep's large frame.
   uint32_t small_node(const SmallView& v, int n, const PrimRef* p, size_t first, const Box& box, int depth,
                       bool may_leaf, Block& block) {
+    if (n == 1 || (n == 2 && depth + 1 < kBvhStackSize - 2))
+      return small_few(v.lo[0], v.hi[0], n, p, first, box, depth, may_leaf, block);
+    return small_sweep(v, n, p, first, box, depth, may_leaf, block);
+  }
+
+  // small_node for n ≥ 2: the sweeps.
+  uint32_t small_sweep(const SmallView& v, int n, const PrimRef* p, size_t first, const Box& box, int depth,
+                       bool may_leaf, Block& block) {
     auto leaf = [&] {
       for (int k = 0; k < n; ++k) out_.prims[first + size_t(k)] = p[small_index(v.hi[0][k])].id();
       return bvh_make_leaf(uint32_t(first), uint32_t(n));
     };
-    if (n == 1) return leaf();
-    if (n == 2 && depth + 1 < kBvhStackSize - 2) return small_pair(v, p, first, box, depth, may_leaf, block);
     int axis = 0, nl = n / 2;  // the median, where no split separates centroids
     if (depth + int(std::bit_width(unsigned(n - 1))) < kBvhStackSize - 2) {
       // The sweep on all three axes at once (lane a = axis a).
@@ -733,18 +749,20 @@ class Builder {
       }
       f4 lx = splat(kInf), ly = lx, lz = lx, hx = splat(-kInf), hy = hx, hz = hx;
       f4 best = splat(kInf);
-      i4 best_k{-1, -1, -1, -1};
-      i4 tie = tie_ranks(v, 0);
+      i4 best_k{-1, -1, -1, -1}, kv{0, 0, 0, 0};
+      f4 nl4 = splat(1.f), nr4 = splat(float(n - 1));  // the two sides' counts (exact in floats)
+      f4 cen = centroids(v, 0);
       for (int k = 0; k < n - 1; ++k) {
         lx = min4(lx, v.lo[0][k]), hx = max4(hx, v.hi[0][k]);
         ly = min4(ly, v.lo[1][k]), hy = max4(hy, v.hi[1][k]);
         lz = min4(lz, v.lo[2][k]), hz = max4(hz, v.hi[2][k]);
-        i4 next = tie_ranks(v, k + 1);
-        f4 c = half_areas3(hx - lx, hy - ly, hz - lz) * splat(float(k + 1)) + right_area[k + 1] * splat(float(n - k - 1));
-        i4 better = (c < best) & (tie != next);
+        f4 next = centroids(v, k + 1);
+        f4 c = half_areas3(hx - lx, hy - ly, hz - lz) * nl4 + right_area[k + 1] * nr4;
+        i4 better = (c < best) & (cen < next);
         best = better ? c : best;
-        best_k = better ? i4{k, k, k, k} : best_k;
-        tie = next;
+        best_k = better ? kv : best_k;
+        cen = next;
+        nl4 += splat(1.f), nr4 -= splat(1.f), kv += i4{1, 1, 1, 1};
       }
       axis = 0;
       if (best[1] < best[axis]) axis = 1;
@@ -767,6 +785,22 @@ class Builder {
       axis = ext[0] >= ext[1] ? (ext[0] >= ext[2] ? 0 : 2) : (ext[1] >= ext[2] ? 1 : 2);
     }
 
+    Box lbox, rbox;
+    for (int k = 0; k < nl; ++k) lbox.grow(v.lo[axis][k], v.hi[axis][k]);
+    for (int k = nl; k < n; ++k) rbox.grow(v.lo[axis][k], v.hi[axis][k]);
+    if (nl <= 2 && n - nl <= 2 && depth + 2 < kBvhStackSize - 2) {
+      // Children of one or two primitives (a third of the splits) need
+      // their entries in this list only: no partition.
+      uint32_t node = block.take(depth);
+      BvhNode& t = out_.nodes[node];
+      set_boxes(t, lbox, rbox);
+      const f4 *lo = v.lo[axis], *hi = v.hi[axis];
+      t.child[0] = small_few(lo, hi, nl, p, first, lbox, depth + 1, size_t(nl) <= max_leaf_, block);
+      t.child[1] = small_few(lo + nl, hi + nl, n - nl, p, first + size_t(nl), rbox, depth + 1,
+                             size_t(n - nl) <= max_leaf_, block);
+      return node;
+    }
+
     // Split the lists: the first nl on `axis` go left, so that list is split
     // as it is (the children point into it); the other two axes' lists are
     // partitioned stably into `child` (branch-free, each entry written once).
@@ -776,13 +810,8 @@ class Builder {
     cv.lo[axis] = v.lo[axis], cv.hi[axis] = v.hi[axis];
     cv.lo[a1] = child.lo[a1], cv.hi[a1] = child.hi[a1];
     cv.lo[a2] = child.lo[a2], cv.hi[a2] = child.hi[a2];
-    Box lbox, rbox;
     uint64_t left = 0;  // bit i: primitive i goes left
-    for (int k = 0; k < nl; ++k) {
-      lbox.grow(v.lo[axis][k], v.hi[axis][k]);
-      left |= uint64_t(1) << small_index(v.hi[axis][k]);
-    }
-    for (int k = nl; k < n; ++k) rbox.grow(v.lo[axis][k], v.hi[axis][k]);
+    for (int k = 0; k < nl; ++k) left |= uint64_t(1) << small_index(v.hi[axis][k]);
     int l1 = 0, r1 = nl, l2 = 0, r2 = nl;
     for (int k = 0; k < n; ++k) {
       f4 lo1 = v.lo[a1][k], hi1 = v.hi[a1][k], lo2 = v.lo[a2][k], hi2 = v.hi[a2][k];
@@ -852,7 +881,8 @@ class Builder {
       return unsplittable(b, e, side, cbox, may_leaf, s);
     }
     const PrimRef* src = buf_[side];
-    Bins bins = bin_all(bn, src, b, e, nb);
+    Bins bins;
+    bin_all(bn, src, b, e, nb, bins);
     int axis, last;
     float best;
     if (!sweep_bins(bins, nb, bn.axis_ok(), axis, last, best)) {
@@ -1305,7 +1335,8 @@ class ClusterBuilder {
     Binner bn(cbox, nb);
     if (bn.degenerate()) return fallback(cb, ce, side, pb, pe, box, depth, at);
     const PrimRef* src = cl_[side];
-    Bins bins = bin_all<true>(bn, src, cb, ce, nb);
+    Bins bins;
+    bin_all<true>(bn, src, cb, ce, nb, bins);
     int axis, last;
     float best;
     if (!sweep_bins(bins, nb, bn.axis_ok(), axis, last, best)) {
