@@ -269,24 +269,31 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
   }
 }
 
-// The path tracer: one path, vertex by vertex, each followed by its shadow
-// ray. Returns the radiance; `rays` counts every query.
+// The path tracer: one path, vertex by vertex. A vertex's shadow ray is
+// traced after the next vertex's closest-hit query, not before it: the next
+// ray needs only the BSDF sample, so the query starts while next-event
+// estimation's longer chain (square roots, divisions, the MIS weight) is
+// still completing (luz_bench, bundled box, 1 thread: paired ratio 0.52 ->
+// 0.55). Returns the radiance; `rays` counts every query.
 template <class Tracer>
 LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray ray, Sampler& sampler,
                               const IntegratorParams& params, uint64_t& rays) {
   PathState st = path_start(ray);
+  ShadowQuery sq;  // the previous vertex's
+  auto trace_shadow = [&] {
+    if (!sq.active) return;
+    ++rays;
+    if (!tracer.occluded(sq.ray)) st.L += sq.contrib;
+  };
   while (st.alive) {
     Hit hit;
     ++rays;
     const VertexRandom u = draw_vertex_random(sampler, st.depth, params);
     bool found = tracer.intersect(st.ray, hit);
-    ShadowQuery sq;
+    trace_shadow();
     path_vertex(scene, st, found, hit, sampler, params, u, sq);
-    if (sq.active) {
-      ++rays;
-      if (!tracer.occluded(sq.ray)) st.L += sq.contrib;
-    }
   }
+  trace_shadow();
   return st.L;
 }
 
