@@ -716,22 +716,23 @@ void add_centred_triangle(std::vector<Vec3>& p, std::vector<uint32_t>& idx, Vec3
 
 // Subtrees of at most 32 primitives are built apart (presorted lists, an
 // exact sweep at every node): on scenes that small the tree is the full-sweep
-// reference's, node for node, also with centroids that tie on one axis or
+// reference's, node for node (with each size of sorting network, and
+// centroids of both signs), also with centroids that tie on one axis or
 // coincide (a stack of more copies of a triangle than a leaf holds, which
 // must be split all the same).
 TEST(Bvh, SmallSubtreesMatchFullSweep) {
   Rng rng(11);
-  for (int n : {2, 3, 5, 9, 17, 31, 32}) {
+  for (int n : {2, 3, 5, 9, 14, 16, 17, 24, 31, 32}) {
     for (int variant = 0; variant < 6; ++variant) {
       Scene s;
       std::vector<Vec3> p;
       std::vector<uint32_t> idx;
       // Coordinates on a 2^-10 grid, so that a box's centre (lo + hi) is
-      // exact and equal centroids are equal in float.
+      // exact and equal centroids are equal in float; on both sides of 0.
       auto grid = [&](float scale) { return std::floor(rng.uniform() * scale) * 0x1p-10f; };
       for (int i = 0; i < n; ++i) {
-        Vec3 c{grid(1024.f), grid(1024.f), grid(1024.f)};
-        if (variant % 3 == 1) c.x = float(i % 3) * 0.25f;            // ties on x
+        Vec3 c{grid(1024.f) - 0.5f, grid(1024.f) - 0.5f, grid(1024.f) - 0.5f};
+        if (variant % 3 == 1) c.x = float(i % 3 - 1) * 0.25f;        // ties on x, 0 among them
         if (variant % 3 == 2 && i >= n / 3) c = {0.5f, 0.5f, 0.5f};  // coinciding
         add_centred_triangle(p, idx, c, Vec3{0x1p-10f + grid(64.f), 0x1p-10f + grid(64.f), 0x1p-10f + grid(64.f)});
       }
@@ -750,6 +751,10 @@ TEST(Bvh, SmallSubtreesMatchFullSweep) {
       EXPECT_EQ(b.num_leaves, bf.num_leaves) << name;
       EXPECT_EQ(b.max_depth, bf.max_depth) << name;
       EXPECT_DOUBLE_EQ(bvh_sah_cost(b), bvh_sah_cost(bf)) << name;
+      // Node for node (a leaf's primitives may come in another order).
+      EXPECT_TRUE(b.nodes.size() == bf.nodes.size() &&
+                  std::memcmp(b.nodes.data(), bf.nodes.data(), b.nodes.size() * sizeof(BvhNode)) == 0)
+          << name;
     }
   }
 }

@@ -355,6 +355,67 @@ std::vector<size_t> left_before_blocks(const PrimRef* src, size_t b, size_t e, B
   return left_before;
 }
 
+// ---------------------------------------------------------------- sorting networks
+//
+// The small subtrees' presort: keys of up to kSweepMax primitives sorted on
+// the three axes at once by a fixed network of compare-exchanges (Batcher's
+// odd-even merge sort), one 4 × 64-bit vector per key, lane a for axis a.
+// A key holds the centroid on a as an ordered integer (signed order = the
+// floats' order) in its high half and the primitive's index in its low
+// half, so that ties go by index. A network over N inputs that only meets
+// padding (the largest key) at positions ≥ n sorts n once the comparators
+// touching those positions are left out: the padding never moves.
+
+typedef int64_t l4 __attribute__((vector_size(32)));
+
+struct Comparator {
+  uint8_t a, b;
+};
+
+// Batcher's network for the next power of two ≥ n, cut down to n inputs
+// (count only: with out == nullptr).
+constexpr int batcher(int n, Comparator* out) {
+  int m = 1, count = 0;
+  while (m < n) m *= 2;
+  for (int p = 1; p < m; p *= 2)
+    for (int k = p; k >= 1; k /= 2)
+      for (int j = k % p; j + k < m; j += 2 * k)
+        for (int i = 0; i < std::min(k, m - j - k); ++i)
+          if ((i + j) / (2 * p) == (i + j + k) / (2 * p) && i + j + k < n) {
+            if (out) out[count] = {uint8_t(i + j), uint8_t(i + j + k)};
+            ++count;
+          }
+  return count;
+}
+
+template <int N>
+constexpr std::array<Comparator, batcher(N, nullptr)> kNetwork = [] {
+  std::array<Comparator, batcher(N, nullptr)> c{};
+  batcher(N, c.data());
+  return c;
+}();
+
+// Sorts k[0, N) lane by lane (unrolled: the keys can stay in registers).
+template <int N>
+inline void sort_network(l4* k) {
+  [&]<size_t... I>(std::index_sequence<I...>) {
+    ((void)[&] {
+      constexpr Comparator c = kNetwork<N>[I];
+      const l4 x = k[c.a], y = k[c.b], swap = x > y;
+      k[c.a] = swap ? y : x;
+      k[c.b] = swap ? x : y;
+    }(), ...);
+  }(std::make_index_sequence<kNetwork<N>.size()>());
+}
+
+// The ordered-integer form of the floats x (w lane junk): flipping the
+// magnitude bits of negative numbers makes signed integer order the float
+// order (+ 0 first: -0 becomes +0, equal to it as a float).
+inline i4 ordered(f4 x) {
+  const i4 b = (i4)(x + splat(0.f));
+  return b ^ ((b >> 31) & i4{0x7fffffff, 0x7fffffff, 0x7fffffff, 0x7fffffff});
+}
+
 class ClusterBuilder;
 
 // The builder. Primitive references live in two buffers: a node's are in
@@ -588,7 +649,7 @@ class Builder {
   // Subtrees of at most kSweepMax primitives are built apart, with the exact
   // SAH sweep (the full_sweep reference's rule: every split between distinct
   // centroids) at every node. The primitives are sorted once on each axis,
-  // at the subtree's root (ranks by pairwise comparison); every node then
+  // at the subtree's root (a sorting network: sort_network); every node then
   // sweeps its three sorted lists and hands each child its part of them, in
   // order (a stable partition), so no node sorts again. A sorted list holds
   // the boxes themselves (SmallSet), so the sweeps read them in order.
@@ -609,13 +670,6 @@ class Builder {
     }
   };
   static int small_index(f4 hi) { return std::bit_cast<int32_t>(hi[3]); }
-  // The sums of the four lanes of x, y and z, in lanes 0, 1 and 2 (3: junk).
-  static i4 sum_lanes3(i4 x, i4 y, i4 z) {
-    i4 xy = __builtin_shufflevector(x, y, 0, 4, 1, 5) + __builtin_shufflevector(x, y, 2, 6, 3, 7);  // x02 y02 x13 y13
-    i4 zz = __builtin_shufflevector(z, z, 0, 1, 2, 3) + __builtin_shufflevector(z, z, 2, 3, 0, 1);  // z02 z13 . .
-    return __builtin_shufflevector(xy, zz, 0, 1, 4, 4) + __builtin_shufflevector(xy, zz, 2, 3, 5, 5);
-  }
-
   // The three lists' centroids at position k (lanes 0..2).
   static f4 centroids(const SmallView& v, int k) {
     f4 w = __builtin_shufflevector(v.lo[0][k], v.lo[1][k], 3, 7, 3, 7);
@@ -628,39 +682,34 @@ class Builder {
   // (small_node).
   uint32_t small_subtree(const PrimRef* p, const int n, size_t first, const Box& box, int depth, bool may_leaf,
                          uint32_t at) {
-    // The centroids axis by axis, four to a vector, padded with NaN (never
-    // smaller than or equal to anything), so that one comparison tests four.
-    constexpr int kBlocks = kSweepMax / 4;
-    f4 cen[3][kBlocks];
-    const int blocks = (n + 3) / 4;
-    for (int a = 0; a < 3; ++a) cen[a][blocks - 1] = splat(std::numeric_limits<float>::quiet_NaN());
+    l4 keys[kSweepMax];
+    f4 cen[kSweepMax];
     for (int i = 0; i < n; ++i) {
-      f4 c = centroid2(p[i]);
-      for (int a = 0; a < 3; ++a) cen[a][i / 4][i % 4] = c[a];
+      cen[i] = centroid2(p[i]);
+      keys[i] = __builtin_convertvector(ordered(cen[i]), l4) << 32 | l4{i, i, i, i};
+    }
+    // The network of the next size up (4, 8, 12, 16, 24 or 32), the keys
+    // padded to it.
+    const int size = n <= 16 ? (n + 3) & ~3 : (n + 7) & ~7;
+    const int64_t pad = std::numeric_limits<int64_t>::max();
+    for (int i = n; i < size; ++i) keys[i] = l4{pad, pad, pad, pad};
+    switch (size) {
+      case 4: sort_network<4>(keys); break;
+      case 8: sort_network<8>(keys); break;
+      case 12: sort_network<12>(keys); break;
+      case 16: sort_network<16>(keys); break;
+      case 24: sort_network<24>(keys); break;
+      default: sort_network<32>(keys); break;
     }
     SmallSet set;
-    for (int i = 0; i < n; ++i) {
-      // pos: the centroids before i's in the sorted order, smaller ones and
-      // equal ones earlier in p (lanes 0..2: the axes), counted four at a
-      // time: ≤ in the blocks before i's, < in those after it.
-      const f4 ci[3] = {splat(cen[0][i / 4][i % 4]), splat(cen[1][i / 4][i % 4]), splat(cen[2][i / 4][i % 4])};
-      i4 cnt[3] = {};
-      const int own = i / 4;
-      for (int k = 0; k < own; ++k)
-        for (int a = 0; a < 3; ++a) cnt[a] -= cen[a][k] <= ci[a];
-      const i4 before = i4{0, 1, 2, 3} < i4{i % 4, i % 4, i % 4, i % 4};
-      for (int a = 0; a < 3; ++a) cnt[a] -= (cen[a][own] < ci[a]) | ((cen[a][own] == ci[a]) & before);
-      for (int k = own + 1; k < blocks; ++k)
-        for (int a = 0; a < 3; ++a) cnt[a] -= cen[a][k] < ci[a];
-      const i4 pos = sum_lanes3(cnt[0], cnt[1], cnt[2]);
-      f4 lo = xyz(p[i].lo);
-      const f4 hi = (f4)((i4)p[i].hi | i4{0, 0, 0, i});
+    for (int k = 0; k < n; ++k)
       for (int a = 0; a < 3; ++a) {
-        lo[3] = ci[a][0];
-        set.lo[a][pos[a]] = lo;
-        set.hi[a][pos[a]] = hi;
+        const int i = int(uint32_t(keys[k][a]));  // the low half: the index
+        f4 lo = xyz(p[i].lo);
+        lo[3] = cen[i][a];
+        set.lo[a][k] = lo;
+        set.hi[a][k] = (f4)((i4)p[i].hi | i4{0, 0, 0, i});
       }
-    }
     SmallView v{{set.lo[0], set.lo[1], set.lo[2]}, {set.hi[0], set.hi[1], set.hi[2]}};
     Block block{out_.parallel ? at : out_.next.load(std::memory_order_relaxed)};
     const uint32_t start = block.next;
@@ -749,8 +798,9 @@ class Builder {
       }
       f4 lx = splat(kInf), ly = lx, lz = lx, hx = splat(-kInf), hy = hx, hz = hx;
       f4 best = splat(kInf);
-      i4 best_k{-1, -1, -1, -1}, kv{0, 0, 0, 0};
-      f4 nl4 = splat(1.f), nr4 = splat(float(n - 1));  // the two sides' counts (exact in floats)
+      // The two sides' counts (exact in floats); best_nl: the best split's
+      // left count (0: none yet).
+      f4 nl4 = splat(1.f), nr4 = splat(float(n - 1)), best_nl = splat(0.f);
       f4 cen = centroids(v, 0);
       for (int k = 0; k < n - 1; ++k) {
         lx = min4(lx, v.lo[0][k]), hx = max4(hx, v.hi[0][k]);
@@ -760,16 +810,16 @@ class Builder {
         f4 c = half_areas3(hx - lx, hy - ly, hz - lz) * nl4 + right_area[k + 1] * nr4;
         i4 better = (c < best) & (cen < next);
         best = better ? c : best;
-        best_k = better ? kv : best_k;
+        best_nl = better ? nl4 : best_nl;
         cen = next;
-        nl4 += splat(1.f), nr4 -= splat(1.f), kv += i4{1, 1, 1, 1};
+        nl4 += splat(1.f), nr4 -= splat(1.f);
       }
       axis = 0;
       if (best[1] < best[axis]) axis = 1;
       if (best[2] < best[axis]) axis = 2;
-      if (best_k[axis] >= 0) {
+      if (best_nl[axis] > 0.f) {
         if (leaf_is_cheaper(size_t(n), best[axis], box, may_leaf)) return leaf();
-        nl = best_k[axis] + 1;
+        nl = int(best_nl[axis]);
       } else {
         // All centroids coincide: a leaf if allowed, else the median.
         if (may_leaf) return leaf();
