@@ -284,14 +284,14 @@ struct Bsdf : BsdfComponent {
 
   // f, pdf and sample of a plain_diffuse() BSDF (the integrator, having
   // asked plain_diffuse() once per vertex, calls these or the _general ones).
+  // Light reflects only from a side the surface has, into that same side.
+  LUZ_INLINE bool diffuse_reflects(Vec3 wo, Vec3 wi) const {
+    return (wo.z > 0.f || (two_sided && wo.z < 0.f)) && wo.z * wi.z > 0.f;
+  }
   LUZ_INLINE Color f_diffuse(Vec3 wo, Vec3 wi) const {
-    if (!(wo.z > 0.f || (two_sided && wo.z < 0.f)) || wo.z * wi.z <= 0.f) return {};
-    return diffuse.reflectance * kInvPi;
+    return diffuse_reflects(wo, wi) ? diffuse.reflectance * kInvPi : Color{};
   }
-  LUZ_INLINE float pdf_diffuse(Vec3 wo, Vec3 wi) const {
-    if (!(wo.z > 0.f || (two_sided && wo.z < 0.f)) || wo.z * wi.z <= 0.f) return 0.f;
-    return fabsf(wi.z) * kInvPi;
-  }
+  LUZ_INLINE float pdf_diffuse(Vec3 wo, Vec3 wi) const { return diffuse_reflects(wo, wi) ? fabsf(wi.z) * kInvPi : 0.f; }
   LUZ_INLINE BsdfSample sample_diffuse(Vec3 wo, float u1, Vec2 u2) const {
     float flip;
     if (!orient(wo, flip)) return {};

@@ -183,10 +183,8 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     // This vertex's random numbers at fixed dimensions (base_dim + 0: light
     // 2D, + 1: lobe 1D, + 2: direction 2D, + 3: Russian roulette 1D).
     const bool nee = use_nee && scene.num_emitters > 0 && (plain || !bsdf.delta_only());
-    Vec2 u_light2 = u.light;
-    const Vec2 u_bsdf2 = u.dir;
+    Vec2 u_light2 = u.light;  // its x may be replaced (sample reuse, below)
     const float u_bsdf = plain ? 0.f : sampler.draw_1d(base_dim + 1, 0);  // Lambert: no lobe choice
-    const float u_rr = u.rr;
 
     // Next-event estimation (not at delta-only vertices: f is 0 there).
     if (nee) {
@@ -233,8 +231,8 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     }
 
     // BSDF sampling.
-    BsdfSample bs = plain ? bsdf.sample_diffuse(wo, u_bsdf, u_bsdf2)
-                          : bsdf.sample_general(wo, u_bsdf, u_bsdf2, TransportMode::Radiance);
+    BsdfSample bs = plain ? bsdf.sample_diffuse(wo, u_bsdf, u.dir)
+                          : bsdf.sample_general(wo, u_bsdf, u.dir, TransportMode::Radiance);
     if (!bs.valid) {
       st.alive = false;
       return;
@@ -256,7 +254,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     // Russian roulette on the throughput without the η² of refraction.
     if (depth >= params.rr_depth) {
       float q = min(max_component(beta) * eta_acc * eta_acc, 0.95f);
-      if (!(u_rr < q)) {
+      if (!(u.rr < q)) {
         st.alive = false;
         return;
       }
