@@ -899,6 +899,8 @@ TEST(Bvh, SameTreeOnAnyThreadCount) {
     ASSERT_EQ(b.nodes.size(), ref.nodes.size()) << threads << " threads";
     EXPECT_EQ(0, std::memcmp(b.nodes.data(), ref.nodes.data(), b.nodes.size() * sizeof(BvhNode))) << threads;
     EXPECT_EQ(b.prims, ref.prims) << threads << " threads";
+    EXPECT_EQ(b.max_depth, ref.max_depth) << threads << " threads";
+    EXPECT_EQ(b.num_leaves, ref.num_leaves) << threads << " threads";
   }
 }
 
@@ -955,6 +957,7 @@ Bvh check_default_build(const char* name, const Scene& s, size_t n_rays = 20000)
       EXPECT_EQ(0, std::memcmp(bt.nodes.data(), b.nodes.data(), b.nodes.size() * sizeof(BvhNode)))
           << name << ", " << threads << " threads";
     EXPECT_EQ(bt.prims, b.prims) << name << ", " << threads << " threads";
+    EXPECT_EQ(bt.max_depth, b.max_depth) << name << ", " << threads << " threads";
   }
   check_against_brute_force(name, s, b, n_rays, 97);
   return b;

@@ -24,7 +24,9 @@
 // options, scenes of at most kSweepMax primitives, and the clusters'
 // degenerate cases). Large arrays are on huge pages where the kernel offers
 // them (page faults otherwise cost as much as the build above a million
-// primitives).
+// primitives), and the nodes are made in the output vector itself
+// (BuildAllocator: no zeroing, no final copy; on more than one thread with
+// gaps, closed in place after).
 //
 // Where the time goes (Sponza, 66k triangles, one thread, perf): the small
 // subtrees 42% (their sorts 10%), the clusters' binning, sweeps and
@@ -32,9 +34,11 @@
 // sort and the clusters 21%, the PrimRefs 3%, copying the nodes out 3%.
 // The primitive builder took 1.35× as long on Sponza (1.6× on the
 // staircase) before kClusterSweep: binning 32%, the small subtrees 33%,
-// partition and bin sweeps 19%, the depth-first renumbering 5%. On the
-// staircase (263k), luz_bench's build on freshly mapped memory takes 1.4×
-// as long as the same build on memory the allocator reuses (page faults).
+// partition and bin sweeps 19%, the depth-first renumbering 5%. Fresh
+// memory is slow on the VMs measured: on the staircase (263k), a build on
+// freshly mapped memory (about 95 bytes per primitive: PrimRefs twice, the
+// nodes, the references) takes 1.4-1.9× as long as the same build on memory
+// the allocator reuses, the kernel zeroing and mapping pages.
 #include "luz/accel/bvh_build.h"
 
 #include <tbb/blocked_range.h>
@@ -435,20 +439,26 @@ class Builder {
   // first, its children's subtrees the next ones, in order. No shared
   // counter (its cache line would pass from core to core at every node:
   // measured, 2 threads no faster than 1 on the staircase); the ranges'
-  // unused ends are gaps, which the renumbering (flatten) closes.
+  // unused ends are gaps, which the renumbering (compact) closes. Every
+  // subtree's range starts with its root and holds its left subtree's
+  // range before its right one's, so the numbers are in depth-first order
+  // already, gaps aside: the serial numbers are the ranks among the used
+  // ones, marked in `used`.
   struct Out {
     BvhNode* nodes;
     uint32_t* prims;
     bool parallel;                      // more than one thread
+    uint64_t* used = nullptr;           // on more: bit k set once node k is made (zeroed before)
     std::atomic<uint32_t> next{0};      // on one thread: nodes made
     std::atomic<uint32_t> depth{0};     // on one thread: the deepest inner node's depth (root: 1)
     tbb::combinable<uint32_t> made{};   // on more: nodes made
+    tbb::combinable<uint32_t> deep{};   // on more: the deepest inner node's depth
 
     // A new node at depth d, first of the range [at, ...) on more than one
     // thread.
     uint32_t take(uint32_t at, int d) {
       if (parallel) {
-        ++made.local();
+        made_range(at, at + 1, d);
         return at;
       }
       note_depth(d);
@@ -456,11 +466,27 @@ class Builder {
       next.store(k + 1, std::memory_order_relaxed);
       return k;
     }
+    // On more than one thread: nodes [b, e) made, the deepest at depth d.
+    void made_range(uint32_t b, uint32_t e, int d) {
+      made.local() += e - b;
+      uint32_t& m = deep.local();
+      m = std::max(m, uint32_t(d));
+      // Bits [b, e) of `used`; a word can be shared with another task's range.
+      while (b < e) {
+        const uint32_t w = b / 64, i = b % 64, m = std::min<uint32_t>(e - b, 64 - i);
+        const uint64_t bits = (m == 64 ? ~uint64_t(0) : (uint64_t(1) << m) - 1) << i;
+        std::atomic_ref<uint64_t>(used[w]).fetch_or(bits, std::memory_order_relaxed);
+        b += m;
+      }
+    }
     void note_depth(int d) {
       depth.store(std::max(depth.load(std::memory_order_relaxed), uint32_t(d)), std::memory_order_relaxed);
     }
     // The number of nodes made.
     uint32_t count() { return parallel ? made.combine(std::plus<uint32_t>()) : next.load(); }
+    uint32_t max_depth() {
+      return parallel ? deep.combine([](uint32_t a, uint32_t b) { return std::max(a, b); }) : depth.load();
+    }
   };
 
   // The node numbers of a small subtree (taken in order, from its range on
@@ -715,7 +741,7 @@ class Builder {
     const uint32_t start = block.next;
     const uint32_t root = small_node(v, n, p, first, box, depth, may_leaf, block);
     if (out_.parallel) {
-      out_.made.local() += block.next - start;
+      out_.made_range(start, block.next, block.depth);
     } else {
       out_.next.store(block.next, std::memory_order_relaxed);
       out_.note_depth(block.depth);
@@ -1014,55 +1040,37 @@ void advise_huge(void* p, size_t bytes) {
 #endif
 }
 
+}  // namespace
+
+void* build_allocate(size_t bytes, size_t align) {
+  bytes = std::max<size_t>(bytes, 1);
+  if (bytes >= 2 * kHugePage) align = std::max(align, kHugePage);
+  void* p = ::operator new(bytes, std::align_val_t(align));
+  advise_huge(p, bytes);
+  return p;
+}
+
+void build_deallocate(void* p, size_t bytes, size_t align) noexcept {
+  bytes = std::max<size_t>(bytes, 1);
+  if (bytes >= 2 * kHugePage) align = std::max(align, kHugePage);
+  ::operator delete(p, std::align_val_t(align));
+}
+
+namespace {
+
 // An uninitialised array of n T (a std::vector would zero it first), on huge
 // pages when large.
 template <class T>
 struct BuildArray {
   struct Free {
-    std::align_val_t align;
-    void operator()(T* p) const { ::operator delete[](p, align); }
+    size_t bytes;
+    void operator()(T* p) const { build_deallocate(p, bytes, alignof(T)); }
   };
   std::unique_ptr<T[], Free> ptr;
-  explicit BuildArray(size_t n) : ptr(nullptr, Free{std::align_val_t(alignof(T))}) {
-    size_t bytes = std::max<size_t>(n, 1) * sizeof(T);
-    std::align_val_t align = std::align_val_t(bytes >= 2 * kHugePage ? kHugePage : alignof(T));
-    T* p = static_cast<T*>(::operator new[](bytes, align));
-    advise_huge(p, bytes);
-    ptr = std::unique_ptr<T[], Free>(p, Free{align});
-  }
+  explicit BuildArray(size_t n)
+      : ptr(static_cast<T*>(build_allocate(n * sizeof(T), alignof(T))), Free{n * sizeof(T)}) {}
   T* get() const { return ptr.get(); }
 };
-
-// Lays the tree out depth-first (deterministic whatever the task schedule
-// was): out = the `count` nodes of tmp reachable from node 0 (there may be
-// gaps between them), renumbered in pre-order, in one pass, each node
-// copied when first visited (its first child is the next node; the second
-// child's number is written into the copy when that child is reached). Also
-// counts the leaves and the depth.
-void flatten(const BvhNode* tmp, uint32_t count, Bvh& out) {
-  out.nodes.reserve(count);
-  advise_huge(out.nodes.data(), count * sizeof(BvhNode));
-  struct Item {
-    uint32_t node, depth, parent;  // parent: the copy whose child[1] this is (~0: none)
-  };
-  std::vector<Item> stack{{0, 1, ~0u}};
-  while (!stack.empty()) {
-    const Item it = stack.back();
-    stack.pop_back();
-    const uint32_t at = uint32_t(out.nodes.size());
-    if (it.parent != ~0u) out.nodes[it.parent].child[1] = at;
-    out.nodes.push_back(tmp[it.node]);
-    out.max_depth = std::max(out.max_depth, it.depth);
-    BvhNode& n = out.nodes.back();
-    for (int k = 0; k < 2; ++k)
-      if (bvh_is_leaf(n.child[k])) out.num_leaves += bvh_leaf_count(n.child[k]) > 0;
-    if (!bvh_is_leaf(n.child[1])) stack.push_back({n.child[1], it.depth + 1, at});
-    if (!bvh_is_leaf(n.child[0])) {
-      stack.push_back({n.child[0], it.depth + 1, ~0u});
-      n.child[0] = at + 1;
-    }
-  }
-}
 
 Box child_box(const BvhNode& n, int k) {
   Box b;
@@ -1604,6 +1612,29 @@ void build_clustered(PrimRef* refs, PrimRef* sorted, size_t n, const RootBounds&
   ClusterBuilder(c0, c1, sorted, out, opt).run(count, n, box, cbox);
 }
 
+// Closes the gaps of a parallel build: the nodes k whose bit k is set in
+// mask, in the order of k, to the front of `nodes`, their inner children
+// renumbered to match (node k becomes node rank(k), the number of used
+// nodes before it). In place, on one thread: a node moves down only, over
+// nodes already moved (measured: copying into fresh memory in parallel
+// took longer on 2 threads, page faults included).
+void compact(BvhNode* nodes, const uint64_t* mask, size_t words) {
+  std::vector<uint32_t> before(words + 1);  // used nodes in the words before
+  before[0] = 0;
+  for (size_t w = 0; w < words; ++w) before[w + 1] = before[w] + uint32_t(std::popcount(mask[w]));
+  auto rank = [&](uint32_t k) {
+    return before[k / 64] + uint32_t(std::popcount(mask[k / 64] & ((uint64_t(1) << (k % 64)) - 1)));
+  };
+  uint32_t at = 0;
+  for (size_t w = 0; w < words; ++w)
+    for (uint64_t m = mask[w]; m; m &= m - 1) {
+      BvhNode node = nodes[64 * w + size_t(std::countr_zero(m))];
+      for (int c = 0; c < 2; ++c)
+        if (!bvh_is_leaf(node.child[c])) node.child[c] = rank(node.child[c]);
+      nodes[at++] = node;
+    }
+}
+
 }  // namespace
 
 Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options) {
@@ -1669,26 +1700,25 @@ Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options) {
                                      return x;
                                    });
     BuildArray<PrimRef> scratch(n);
-    BuildArray<BvhNode> nodes(std::max<size_t>(n - 1, 1));
-    bvh.prims.reserve(n);
-    advise_huge(bvh.prims.data(), n * sizeof(uint32_t));
-    bvh.prims.resize(n);
-    Builder::Out out{nodes.get(), bvh.prims.data(), tbb::this_task_arena::max_concurrency() > 1};
+    bvh.prims.resize(n);  // uninitialised (BuildAllocator)
+    // Room for the n - 1 nodes a tree over n primitives may have, of which
+    // only those written are touched: the nodes are made in bvh.nodes
+    // itself, trimmed to their number after. On one thread they are made
+    // depth first; on more, with gaps, closed after (compact).
+    const bool parallel = tbb::this_task_arena::max_concurrency() > 1;
+    const size_t slots = std::max<size_t>(n - 1, 1);
+    bvh.nodes.resize(slots);
+    std::vector<uint64_t> used(parallel ? (slots + 63) / 64 : 0);
+    Builder::Out out{bvh.nodes.data(), bvh.prims.data(), parallel, used.data()};
     if (n <= size_t(kSweepMax) || options.median_split || options.full_sweep || !options.clusters)
       Builder(rp, scratch.get(), n, 0, out, options).run(rb.box, rb.cbox);
     else
       build_clustered(rp, scratch.get(), n, rb, out, options);
     const uint32_t count = out.count();
-    if (out.parallel) {
-      flatten(nodes.get(), count, bvh);
-    } else {
-      // One thread allocates the nodes depth first: already in order.
-      bvh.nodes.reserve(count);
-      advise_huge(bvh.nodes.data(), count * sizeof(BvhNode));
-      bvh.nodes.assign(nodes.get(), nodes.get() + count);
-      bvh.num_leaves = count + (n > 1);  // one prim: a leaf and an empty one
-      bvh.max_depth = out.depth.load();
-    }
+    if (parallel) compact(bvh.nodes.data(), used.data(), used.size());
+    bvh.nodes.resize(count);
+    bvh.num_leaves = count + (n > 1);  // one prim: a leaf and an empty one
+    bvh.max_depth = out.max_depth();
   });
   const BvhNode& root = bvh.nodes[0];
   Box rb = child_box(root, 0);

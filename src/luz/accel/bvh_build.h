@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
+#include <new>
 #include <vector>
 
 #include "luz/accel/bvh.h"
@@ -22,9 +24,53 @@ struct BvhBuildOptions {
   int threads = 0;               // 0: the current TBB arena
 };
 
+// The allocator of the build's output vectors: large ones on 2 MiB
+// boundaries, advised onto transparent huge pages, and resize() leaves new
+// elements uninitialised (default-initialised, as `new T` does), so that the
+// builder writes the tree straight into a vector's storage, touching only
+// what it writes, with no zeroing pass and no final copy.
+template <class T>
+struct BuildAllocator : std::allocator<T> {
+  template <class U>
+  struct rebind {
+    using other = BuildAllocator<U>;
+  };
+  BuildAllocator() = default;
+  template <class U>
+  BuildAllocator(const BuildAllocator<U>&) noexcept {}
+  T* allocate(size_t n);
+  void deallocate(T* p, size_t n) noexcept;
+  template <class U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+template <class T, class U>
+bool operator==(const BuildAllocator<T>&, const BuildAllocator<U>&) noexcept {
+  return true;
+}
+
+// n bytes, 2 MiB-aligned and advised onto huge pages when at least 4 MiB
+// (bvh_build.cpp).
+void* build_allocate(size_t bytes, size_t align);
+void build_deallocate(void* p, size_t bytes, size_t align) noexcept;
+template <class T>
+T* BuildAllocator<T>::allocate(size_t n) {
+  if (n > size_t(-1) / sizeof(T)) throw std::bad_array_new_length();
+  return static_cast<T*>(build_allocate(n * sizeof(T), alignof(T)));
+}
+template <class T>
+void BuildAllocator<T>::deallocate(T* p, size_t n) noexcept {
+  build_deallocate(p, n * sizeof(T), alignof(T));
+}
+
 struct Bvh {
-  std::vector<BvhNode> nodes;   // depth-first order, root first
-  std::vector<uint32_t> prims;  // tagged references (bit 31: sphere), leaf order
+  std::vector<BvhNode, BuildAllocator<BvhNode>> nodes;    // depth-first order, root first
+  std::vector<uint32_t, BuildAllocator<uint32_t>> prims;  // tagged references (bit 31: sphere), leaf order
   Vec3 bounds_min{}, bounds_max{};
   uint32_t num_triangles = 0, num_spheres = 0;
   uint32_t num_leaves = 0, max_depth = 0;  // max_depth: inner levels (root = 1)

@@ -242,9 +242,9 @@ class Uploader {
 BvhTracer upload_tracer(Uploader& up, const Bvh& bvh, const Vec3* positions, const uint32_t* indices,
                         const Sphere* spheres) {
   BvhTracer tracer;
-  tracer.bvh.nodes = up.upload(bvh.nodes, "BVH nodes");
+  tracer.bvh.nodes = up.upload(bvh.nodes.data(), bvh.nodes.size(), "BVH nodes");
   tracer.bvh.num_nodes = uint32_t(bvh.nodes.size());
-  tracer.bvh.prims = up.upload(bvh.prims, "BVH primitive references");
+  tracer.bvh.prims = up.upload(bvh.prims.data(), bvh.prims.size(), "BVH primitive references");
   tracer.bvh.num_prims = uint32_t(bvh.prims.size());
   tracer.geometry.positions = positions;
   tracer.geometry.indices = indices;
