@@ -904,6 +904,48 @@ TEST(Bvh, SameTreeOnAnyThreadCount) {
   }
 }
 
+// A build into a used Bvh with a used BvhScratch (another scene's, larger
+// or smaller, on another thread count) gives the fresh build's tree and
+// fields, and reuses the storage when it is large enough.
+TEST(Bvh, RebuildIntoUsedStorageMatchesFreshBuild) {
+  auto same = [](const char* name, const Bvh& a, const Bvh& f) {
+    ASSERT_EQ(a.nodes.size(), f.nodes.size()) << name;
+    EXPECT_EQ(0, std::memcmp(a.nodes.data(), f.nodes.data(), f.nodes.size() * sizeof(BvhNode))) << name;
+    EXPECT_EQ(a.prims, f.prims) << name;
+    EXPECT_EQ(a.num_leaves, f.num_leaves) << name;
+    EXPECT_EQ(a.max_depth, f.max_depth) << name;
+    EXPECT_EQ(a.num_triangles, f.num_triangles) << name;
+    EXPECT_EQ(a.num_spheres, f.num_spheres) << name;
+    EXPECT_EQ(0, std::memcmp(&a.bounds_min, &f.bounds_min, sizeof(Vec3))) << name;
+    EXPECT_EQ(0, std::memcmp(&a.bounds_max, &f.bounds_max, sizeof(Vec3))) << name;
+  };
+  const Scene& big = sponza().scene;
+  const Scene& balls = spheres().scene;
+  SceneView tiny = big.view();  // 5 triangles: the primitive builder's small path
+  tiny.num_triangles = 5;
+  SceneView none = big.view();
+  none.num_triangles = 0;
+  Bvh b;
+  BvhScratch w;
+  for (int threads : {1, 2}) {
+    BvhBuildOptions o;
+    o.threads = threads;
+    const std::string t = std::to_string(threads) + " thread(s)";
+    build_bvh(big.view(), o, b, w);
+    same(("sponza, " + t).c_str(), b, build_bvh(big.view(), o));
+    const BvhNode* at = b.nodes.data();
+    build_bvh(balls.view(), o, b, w);
+    same(("spheres after sponza, " + t).c_str(), b, build_bvh(balls.view(), o));
+    build_bvh(tiny, o, b, w);
+    same(("5 triangles, " + t).c_str(), b, build_bvh(tiny, o));
+    build_bvh(none, o, b, w);
+    EXPECT_TRUE(b.nodes.empty() && b.prims.empty() && b.num_leaves == 0) << t;
+    build_bvh(big.view(), o, b, w);
+    same(("sponza again, " + t).c_str(), b, build_bvh(big.view(), o));
+    EXPECT_EQ(b.nodes.data(), at) << "the nodes' storage is reused, " << t;
+  }
+}
+
 // ------------------------------------------------------------ clusters
 //
 // Above the small subtrees, the default builder bins clusters of primitives

@@ -116,6 +116,7 @@ struct alignas(32) PrimRef {
   f4 lo, hi;
   uint32_t id() const { return std::bit_cast<uint32_t>(lo[3]); }
 };
+static_assert(alignof(PrimRef) <= 64);  // BvhScratch's alignment
 
 
 // Twice the box centre (w = 0).
@@ -1196,7 +1197,18 @@ void refine_run(uint64_t* keys, PrimRef* sorted, size_t m, uint8_t* d) {
   if (grid.degenerate()) return;
   for (size_t i = 0; i < m; ++i) keys[i] = uint64_t(morton(grid.bin(centroid2(sorted[i])))) << 32 | i;
   std::sort(keys, keys + m);
-  const std::vector<PrimRef> run(sorted, sorted + m);
+  // The run's copy on the stack (the staircase's runs: 17 to 256
+  // primitives), on the heap if longer.
+  constexpr size_t kLocal = 256;
+  PrimRef local[kLocal];
+  std::vector<PrimRef> heap;
+  const PrimRef* run = local;
+  if (m <= kLocal) {
+    std::copy(sorted, sorted + m, local);
+  } else {
+    heap.assign(sorted, sorted + m);
+    run = heap.data();
+  }
   for (size_t i = 0; i < m; ++i) sorted[i] = run[uint32_t(keys[i])];
   for (size_t i = 1; i < m; ++i) d[i] = uint8_t(32 + std::countl_zero(code_of(keys[i - 1]) ^ code_of(keys[i])));
 }
@@ -1637,20 +1649,44 @@ void compact(BvhNode* nodes, const uint64_t* mask, size_t words) {
 
 }  // namespace
 
+BvhScratch::~BvhScratch() { build_deallocate(p_, bytes_, 64); }
+
+void* BvhScratch::get(size_t bytes) {
+  if (bytes > bytes_ || !p_) {
+    build_deallocate(p_, bytes_, 64);
+    p_ = nullptr;
+    bytes_ = 0;
+    p_ = build_allocate(bytes, 64);  // PrimRefs: 32-byte aligned
+    bytes_ = bytes;
+  }
+  return p_;
+}
+
 Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options) {
-  auto t0 = std::chrono::steady_clock::now();
   Bvh bvh;
-  bvh.num_triangles = scene.num_triangles;
-  bvh.num_spheres = scene.num_spheres;
+  BvhScratch scratch;
+  build_bvh(scene, options, bvh, scratch);
+  return bvh;
+}
+
+void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh, BvhScratch& work) {
+  auto t0 = std::chrono::steady_clock::now();
   size_t nt = scene.num_triangles, ns = scene.num_spheres, n = nt + ns;
   if (n >= kBvhMaxPrims) throw std::invalid_argument("build_bvh: too many primitives for the BVH's 27-bit leaf offsets");
-  if (n == 0) return bvh;
+  bvh.nodes.clear();
+  bvh.prims.clear();
+  bvh.bounds_min = bvh.bounds_max = Vec3{};
+  bvh.num_triangles = scene.num_triangles;
+  bvh.num_spheres = scene.num_spheres;
+  bvh.num_leaves = bvh.max_depth = 0;
+  bvh.build_seconds = 0;
+  if (n == 0) return;
 
-  tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
-  arena.execute([&] {
-    // PrimRefs and the root's bounds in one pass.
-    BuildArray<PrimRef> refs(n);
-    PrimRef* rp = refs.get();
+  auto build = [&] {
+    // PrimRefs and the root's bounds in one pass (refs; as much scratch
+    // space after them).
+    PrimRef* rp = static_cast<PrimRef*>(work.get(2 * n * sizeof(PrimRef)));
+    PrimRef* scratch = rp + n;
     auto make_refs = [&](size_t b, size_t e, RootBounds acc) {
       // Triangles (the first nt references), four lanes at a time.
       auto load = [](const Vec3& v) { return f4{v.x, v.y, v.z, 0.f}; };
@@ -1699,7 +1735,6 @@ Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options) {
                                      x.cbox.grow(y.cbox);
                                      return x;
                                    });
-    BuildArray<PrimRef> scratch(n);
     bvh.prims.resize(n);  // uninitialised (BuildAllocator)
     // Room for the n - 1 nodes a tree over n primitives may have, of which
     // only those written are touched: the nodes are made in bvh.nodes
@@ -1711,22 +1746,26 @@ Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options) {
     std::vector<uint64_t> used(parallel ? (slots + 63) / 64 : 0);
     Builder::Out out{bvh.nodes.data(), bvh.prims.data(), parallel, used.data()};
     if (n <= size_t(kSweepMax) || options.median_split || options.full_sweep || !options.clusters)
-      Builder(rp, scratch.get(), n, 0, out, options).run(rb.box, rb.cbox);
+      Builder(rp, scratch, n, 0, out, options).run(rb.box, rb.cbox);
     else
-      build_clustered(rp, scratch.get(), n, rb, out, options);
+      build_clustered(rp, scratch, n, rb, out, options);
     const uint32_t count = out.count();
     if (parallel) compact(bvh.nodes.data(), used.data(), used.size());
     bvh.nodes.resize(count);
     bvh.num_leaves = count + (n > 1);  // one prim: a leaf and an empty one
     bvh.max_depth = out.max_depth();
-  });
+  };
+  // threads = 0: the current arena (a new arena would take every core).
+  if (options.threads > 0)
+    tbb::task_arena(options.threads).execute(build);
+  else
+    build();
   const BvhNode& root = bvh.nodes[0];
   Box rb = child_box(root, 0);
   rb.grow(child_box(root, 1));
   bvh.bounds_min = {rb.lo[0], rb.lo[1], rb.lo[2]};
   bvh.bounds_max = {rb.hi[0], rb.hi[1], rb.hi[2]};
   bvh.build_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return bvh;
 }
 
 BvhTracer make_bvh_tracer(const Bvh& bvh, const SceneView& scene) {

@@ -88,9 +88,34 @@ struct Bvh {
   size_t bytes() const { return nodes.size() * sizeof(BvhNode) + prims.size() * sizeof(uint32_t); }
 };
 
+// Working memory a build keeps for the next one (64 bytes per primitive).
+// Fresh memory is costly: the kernel maps and zeroes every page at its
+// first touch, and on the VMs measured that took a third of a build's time
+// on 263k triangles. Rebuilding (an animation; a benchmark) with the same
+// BvhScratch and the same Bvh takes no fresh memory once they are large
+// enough.
+class BvhScratch {
+ public:
+  BvhScratch() = default;
+  BvhScratch(const BvhScratch&) = delete;
+  BvhScratch& operator=(const BvhScratch&) = delete;
+  ~BvhScratch();
+  // At least `bytes` (2 MiB-aligned when large; contents undefined), kept
+  // for the next call if large enough.
+  void* get(size_t bytes);
+
+ private:
+  void* p_ = nullptr;
+  size_t bytes_ = 0;
+};
+
 // Builds over scene.positions/indices/num_triangles and spheres/num_spheres.
 // Throws std::invalid_argument on more than kBvhMaxPrims primitives.
 Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options = {});
+
+// The same tree, into `bvh` (whose vectors' storage is reused where large
+// enough; every field is overwritten), with `scratch`'s memory.
+void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh, BvhScratch& scratch);
 
 // The tracer over `bvh` and the geometry arrays of `scene` (host pointers).
 BvhTracer make_bvh_tracer(const Bvh& bvh, const SceneView& scene);
