@@ -1221,7 +1221,8 @@ struct Cut {
 };
 
 // Cuts the primitives sorted[0, n), in the order of their keys[0, n) (the
-// sorted codes of their centroids), into clusters, appended to `cuts`. The
+// sorted codes of their centroids), into clusters: writes them to
+// cuts[0, ...) (room for n) and returns their number (d[0, n]: scratch). The
 // cluster that starts at b is the largest radix-tree cell [b, e) within the
 // limits: no more than kClusterMax primitives, no shallower than
 // kClusterPrefix bits (the single primitive [b, b + 1) always qualifies).
@@ -1234,12 +1235,10 @@ struct Cut {
 // for the binned SAH. On more than one thread, each pass runs in blocks;
 // the greedy cut restarts at splits shallower than kClusterPrefix, which
 // are always cuts, so the result is the serial one.
-void make_clusters(uint64_t* keys, PrimRef* sorted, size_t n, std::vector<Cut>& cuts, bool parallel) {
+size_t make_clusters(uint64_t* keys, PrimRef* sorted, size_t n, uint8_t* d, Cut* cuts, bool parallel) {
   // d[i]: the common-prefix depth of codes i - 1 and i in their 32-bit word
   // (the codes have 2 leading zeros, so d ≥ 2; 32 where equal); 0 at the
   // ends.
-  std::vector<uint8_t> depths(n + 1);
-  uint8_t* d = depths.data();
   d[0] = d[n] = 0;
   const size_t block = sort_block(n);
   for_blocks(n, block, parallel, [&](size_t b, size_t e, size_t) {
@@ -1263,9 +1262,11 @@ void make_clusters(uint64_t* keys, PrimRef* sorted, size_t n, std::vector<Cut>& 
     refine_run(keys + runs[r].first, sorted + runs[r].first, runs[r].second - runs[r].first, d + runs[r].first);
   });
 
-  // The greedy cut of [b, e) (b: a cut) into `out`.
+  // The greedy cut of [b, e) (b: a cut) into out[0, ...) (at most e - b
+  // cuts); returns their number.
   constexpr int kMinDepth = 32 - 3 * kMortonBits + kClusterPrefix;
-  auto cut = [&](size_t b, size_t e, std::vector<Cut>& out) {
+  auto cut = [&](size_t b, size_t e, Cut* out) {
+    size_t count = 0;
     while (b < e) {
       const int db = d[b];
       const size_t last = std::min(e, b + size_t(kClusterMax));
@@ -1276,15 +1277,12 @@ void make_clusters(uint64_t* keys, PrimRef* sorted, size_t n, std::vector<Cut>& 
         if (inner <= db || inner < kMinDepth) break;  // no larger cell starts at b
         if (d[x] < inner) end = x, depth = inner;
       }
-      out.push_back({uint32_t(b), uint8_t(depth)});
+      out[count++] = {uint32_t(b), uint8_t(depth)};
       b = end;
     }
+    return count;
   };
-  if (!parallel) {
-    cuts.reserve(n / 2 + 2);
-    cut(0, n, cuts);
-    return;
-  }
+  if (!parallel) return cut(0, n, cuts);
   const size_t blocks = (n + block - 1) / block;
   std::vector<size_t> from(blocks + 1, n);  // block k cuts [from[k], from[k + 1])
   for_blocks(blocks, 1, true, [&](size_t k, size_t, size_t) {
@@ -1292,15 +1290,16 @@ void make_clusters(uint64_t* keys, PrimRef* sorted, size_t n, std::vector<Cut>& 
     while (i > 0 && i < n && d[i] >= kMinDepth) ++i;
     from[k] = i;
   });
-  std::vector<std::vector<Cut>> part(blocks);
-  for_blocks(blocks, 1, true, [&](size_t k, size_t, size_t) {
-    part[k].reserve((from[k + 1] - from[k]) / 2 + 2);
-    cut(from[k], from[k + 1], part[k]);
-  });
+  // Block k's cuts from cuts[from[k]] (no more than its primitives), then
+  // moved down together, in order.
+  std::vector<size_t> made(blocks);
+  for_blocks(blocks, 1, true, [&](size_t k, size_t, size_t) { made[k] = cut(from[k], from[k + 1], cuts + from[k]); });
   size_t total = 0;
-  for (const auto& p : part) total += p.size();
-  cuts.reserve(total + 1);
-  for (const auto& p : part) cuts.insert(cuts.end(), p.begin(), p.end());
+  for (size_t k = 0; k < blocks; ++k) {
+    std::memmove(cuts + total, cuts + from[k], made[k] * sizeof(Cut));
+    total += made[k];
+  }
+  return total;
 }
 
 // The binned SAH over clusters (the top of the tree). A cluster reference
@@ -1502,9 +1501,15 @@ void build_clustered(PrimRef* refs, PrimRef* sorted, size_t n, const RootBounds&
   for_blocks(n, block, parallel, [&](size_t b, size_t e, size_t) {
     for (size_t i = b; i < e; ++i) sorted[i] = refs[uint32_t(keys[i])];  // independent loads: they overlap
   });
-  std::vector<Cut> cuts;
-  make_clusters(keys, sorted, n, cuts, parallel);
-  cuts.push_back({uint32_t(n), 0});
+  // The depths of make_clusters and the cuts (as many as primitives at
+  // most, and an end) after the keys in out.nodes: 16n + (n + 8) + 8(n + 1)
+  // bytes, within the nodes' 64(n - 1) for n > 1, dead before any node is
+  // written.
+  static_assert(sizeof(Cut) == 8 && alignof(Cut) <= 8);
+  uint8_t* depths = reinterpret_cast<uint8_t*>(std::min(keys, tmp) + 2 * n);
+  Cut* cuts = reinterpret_cast<Cut*>(depths + ((n + 1 + 7) & ~size_t(7)));
+  const size_t ncuts = make_clusters(keys, sorted, n, depths, cuts, parallel);
+  cuts[ncuts] = {uint32_t(n), 0};
 
   // The clusters' references: cluster_refs(k0, k1, emit) calls emit(s, e,
   // box) for the clusters of cuts[k0, k1), in order, after the rules on
@@ -1583,7 +1588,6 @@ void build_clustered(PrimRef* refs, PrimRef* sorted, size_t n, const RootBounds&
   PrimRef* c0 = refs;  // at most n clusters
   Box box, cbox;
   size_t count = 0;
-  const size_t ncuts = cuts.size() - 1;
   if (!parallel) {
     cluster_refs(0, ncuts, [&](uint32_t s, uint32_t e, const Box& b) {
       c0[count++] = make_ref(s, e, b);
