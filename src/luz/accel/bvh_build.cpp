@@ -28,17 +28,20 @@
 // (BuildAllocator: no zeroing, no final copy; on more than one thread with
 // gaps, closed in place after).
 //
-// Where the time goes (Sponza, 66k triangles, one thread, perf): the small
-// subtrees 42% (their sorts 10%), the clusters' binning, sweeps and
-// partitions 29% (with gathering the small subtrees' primitives), the Morton
-// sort and the clusters 21%, the PrimRefs 3%, copying the nodes out 3%.
-// The primitive builder took 1.35× as long on Sponza (1.6× on the
-// staircase) before kClusterSweep: binning 32%, the small subtrees 33%,
-// partition and bin sweeps 19%, the depth-first renumbering 5%. Fresh
-// memory is slow on the VMs measured: on the staircase (263k), a build on
-// freshly mapped memory (about 95 bytes per primitive: PrimRefs twice, the
-// nodes, the references) takes 1.4-1.9× as long as the same build on memory
-// the allocator reuses, the kernel zeroing and mapping pages.
+// Where the time goes (the staircase, 263k triangles, one thread, on reused
+// memory; callgrind and perf agree within a few %): the small subtrees
+// about half (their sweeps 41%, the presorts and sorted lists 10%), the
+// clusters' binning, sweeps and partitions 19%, make_clusters 10% (6%
+// reordering the runs of equal Morton codes: 44% of the staircase's
+// triangles), the Morton keys, radix sort and gather 12%, the PrimRefs 3%.
+// No line stands out: the sweeps' cost is spread over their min/max, area
+// and partition steps. The primitive builder took 1.35× as long on Sponza
+// (1.6× on the staircase) before kClusterSweep: binning 32%, the small
+// subtrees 33%, partition and bin sweeps 19%, the depth-first renumbering
+// 5%. Fresh memory is slow on the VMs measured: on the staircase, a build
+// on freshly mapped memory (about 95 bytes per primitive: PrimRefs twice,
+// the nodes, the references) takes 1.4-1.9× as long as the same build on
+// memory reused (BvhScratch), the kernel zeroing and mapping pages.
 #include "luz/accel/bvh_build.h"
 
 #include <tbb/blocked_range.h>
