@@ -28,20 +28,17 @@
 // (BuildAllocator: no zeroing, no final copy; on more than one thread with
 // gaps, closed in place after).
 //
-// Where the time goes (the staircase, 263k triangles, one thread, on reused
-// memory; callgrind and perf agree within a few %): the small subtrees
-// about half (their sweeps 41%, the presorts and sorted lists 10%), the
-// clusters' binning, sweeps and partitions 19%, make_clusters 10% (6%
-// reordering the runs of equal Morton codes: 44% of the staircase's
-// triangles), the Morton keys, radix sort and gather 12%, the PrimRefs 3%.
-// No line stands out: the sweeps' cost is spread over their min/max, area
-// and partition steps. The primitive builder took 1.35× as long on Sponza
-// (1.6× on the staircase) before kClusterSweep: binning 32%, the small
-// subtrees 33%, partition and bin sweeps 19%, the depth-first renumbering
-// 5%. Fresh memory is slow on the VMs measured: on the staircase, a build
-// on freshly mapped memory (about 95 bytes per primitive: PrimRefs twice,
-// the nodes, the references) takes 1.4-1.9× as long as the same build on
-// memory reused (BvhScratch), the kernel zeroing and mapping pages.
+// Where the time goes (Sponza, 66k triangles, one thread, perf): the small
+// subtrees 42% (their sorts 10%), the clusters' binning, sweeps and
+// partitions 29% (with gathering the small subtrees' primitives), the Morton
+// sort and the clusters 21%, the PrimRefs 3%, copying the nodes out 3%.
+// The primitive builder took 1.35× as long on Sponza (1.6× on the
+// staircase) before kClusterSweep: binning 32%, the small subtrees 33%,
+// partition and bin sweeps 19%, the depth-first renumbering 5%. Fresh
+// memory is slow on the VMs measured: on the staircase (263k), a build on
+// freshly mapped memory (about 95 bytes per primitive: PrimRefs twice, the
+// nodes, the references) takes 1.4-1.9× as long as the same build on memory
+// the allocator reuses, the kernel zeroing and mapping pages.
 #include "luz/accel/bvh_build.h"
 
 #include <tbb/blocked_range.h>
@@ -1598,27 +1595,29 @@ void build_clustered(PrimRef* refs, PrimRef* sorted, size_t n, const RootBounds&
       cbox.grow(xyz(b.lo) + xyz(b.hi));
     });
   } else {
-    // Blocks of cuts into lists of their own, then joined in order.
+    // Blocks of cuts, each writing its clusters from c0[its first
+    // primitive's position] on (no more clusters than primitives), then
+    // moved down together, in order.
     constexpr size_t kCutBlock = 4096;
     const size_t nblocks = (ncuts + kCutBlock - 1) / kCutBlock;
-    std::vector<std::vector<PrimRef>> part(nblocks);
+    std::vector<size_t> made(nblocks);
     std::vector<RootBounds> bounds(nblocks);
     for_blocks(ncuts, kCutBlock, true, [&](size_t k0, size_t k1, size_t k) {
-      part[k].reserve((k1 - k0) * 5 / 4);
+      PrimRef* to = c0 + cuts[k0].start;
+      size_t m = 0;
       cluster_refs(k0, k1, [&](uint32_t s, uint32_t e, const Box& b) {
-        part[k].push_back(make_ref(s, e, b));
+        to[m++] = make_ref(s, e, b);
         bounds[k].box.grow(b);
         bounds[k].cbox.grow(xyz(b.lo) + xyz(b.hi));
       });
+      made[k] = m;
     });
-    std::vector<size_t> at(nblocks + 1, 0);
     for (size_t k = 0; k < nblocks; ++k) {
-      at[k + 1] = at[k] + part[k].size();
+      std::memmove(static_cast<void*>(c0 + count), c0 + cuts[k * kCutBlock].start, made[k] * sizeof(PrimRef));
+      count += made[k];
       box.grow(bounds[k].box);
       cbox.grow(bounds[k].cbox);
     }
-    count = at[nblocks];
-    tbb::parallel_for(size_t(0), nblocks, [&](size_t k) { std::copy(part[k].begin(), part[k].end(), c0 + at[k]); });
   }
 
   // Their second buffer after them, if it fits.
