@@ -423,7 +423,29 @@ void check_structure(const char* name, const Scene& s, const Bvh& bvh, const Bvh
   EXPECT_EQ(bad_child, 0u) << name << ": bad child indices";
   EXPECT_EQ(orphan, 0u) << name << ": nodes without exactly one parent";
   EXPECT_LT(int(bvh.max_depth), kBvhStackSize) << name;
-  EXPECT_EQ(bvh.nodes.size() + 1, bvh.num_leaves) << name << ": a binary tree has one leaf more than inner nodes";
+  // Depth-first order, the depth and the leaves, from a walk of the tree
+  // (not from the builder's own counts).
+  size_t not_depth_first = 0, leaves = 0;
+  uint32_t deepest = 0;
+  std::vector<std::pair<uint32_t, uint32_t>> stack;  // node, depth (root: 1)
+  if (!bvh.nodes.empty()) stack.push_back({0, 1});
+  while (!stack.empty() && bad_child == 0 && orphan == 0) {
+    auto [i, d] = stack.back();
+    stack.pop_back();
+    deepest = std::max(deepest, d);
+    const BvhNode& n = bvh.nodes[i];
+    if (!bvh_is_leaf(n.child[0]) && n.child[0] != i + 1) ++not_depth_first;
+    for (int k = 1; k >= 0; --k) {
+      if (bvh_is_leaf(n.child[k]))
+        leaves += bvh_leaf_count(n.child[k]) > 0;
+      else
+        stack.push_back({n.child[k], d + 1});
+    }
+  }
+  EXPECT_EQ(not_depth_first, 0u) << name << ": first children not right after their parents";
+  EXPECT_EQ(bvh.max_depth, deepest) << name << ": max_depth";
+  EXPECT_EQ(bvh.num_leaves, leaves) << name << ": num_leaves (non-empty)";
+  EXPECT_EQ(bvh.nodes.size() + (nt + ns > 1), leaves) << name << ": a binary tree has one leaf more than inner nodes";
 }
 
 struct SceneCase {
@@ -944,6 +966,11 @@ TEST(Bvh, RebuildIntoUsedStorageMatchesFreshBuild) {
     same(("sponza again, " + t).c_str(), b, build_bvh(big.view(), o));
     EXPECT_EQ(b.nodes.data(), at) << "the nodes' storage is reused, " << t;
   }
+  // A build that throws leaves the Bvh empty, not holding the last tree.
+  SceneView too_many = big.view();
+  too_many.num_triangles = kBvhMaxPrims;
+  EXPECT_THROW(build_bvh(too_many, BvhBuildOptions{}, b, w), std::invalid_argument);
+  EXPECT_TRUE(b.nodes.empty() && b.prims.empty() && b.num_triangles == 0 && b.num_leaves == 0);
 }
 
 // ------------------------------------------------------------ clusters

@@ -28,17 +28,20 @@
 // (BuildAllocator: no zeroing, no final copy; on more than one thread with
 // gaps, closed in place after).
 //
-// Where the time goes (Sponza, 66k triangles, one thread, perf): the small
-// subtrees 42% (their sorts 10%), the clusters' binning, sweeps and
-// partitions 29% (with gathering the small subtrees' primitives), the Morton
-// sort and the clusters 21%, the PrimRefs 3%, copying the nodes out 3%.
-// The primitive builder took 1.35× as long on Sponza (1.6× on the
-// staircase) before kClusterSweep: binning 32%, the small subtrees 33%,
-// partition and bin sweeps 19%, the depth-first renumbering 5%. Fresh
-// memory is slow on the VMs measured: on the staircase (263k), a build on
-// freshly mapped memory (about 95 bytes per primitive: PrimRefs twice, the
-// nodes, the references) takes 1.4-1.9× as long as the same build on memory
-// the allocator reuses, the kernel zeroing and mapping pages.
+// Where the time goes (the staircase, 263k triangles, one thread, on reused
+// memory; callgrind and perf agree within a few %): the small subtrees
+// about half (their sweeps 41%, the presorts and sorted lists 10%), the
+// clusters' binning, sweeps and partitions 19%, make_clusters 10% (6%
+// reordering the runs of equal Morton codes: 44% of the staircase's
+// triangles), the Morton keys, radix sort and gather 12%, the PrimRefs 3%.
+// No line stands out: the sweeps' cost is spread over their min/max, area
+// and partition steps. The primitive builder took 1.35× as long on Sponza
+// (1.6× on the staircase) before kClusterSweep: binning 32%, the small
+// subtrees 33%, partition and bin sweeps 19%, the depth-first renumbering
+// 5%. Fresh memory is slow on the VMs measured: on the staircase, a build
+// on freshly mapped memory (about 95 bytes per primitive: PrimRefs twice,
+// the nodes, the references) takes 1.4-1.9× as long as the same build on
+// memory reused (BvhScratch), the kernel zeroing and mapping pages.
 #include "luz/accel/bvh_build.h"
 
 #include <tbb/blocked_range.h>
@@ -64,6 +67,7 @@
 
 #if defined(__linux__)
 #include <sys/mman.h>
+#include <unistd.h>
 #endif
 
 namespace luz {
@@ -1447,15 +1451,16 @@ class ClusterBuilder {
   }
 };
 
-// The clustered build (ClusterBuilder) over refs[0, n) (bounds rb; sorted:
-// room for n references). Its scratch arrays reuse memory the build has
-// already or will have touched: the keys lie in out.nodes (room for n - 1 ≥
-// 2n/8 nodes; written only once the keys are no longer needed), the
-// clusters in refs once those are copied to `sorted`. Every pass runs in
+// The clustered build (ClusterBuilder) over refs[0, n) (bounds rb; sorted
+// and spare: room for n references each). Its scratch arrays reuse memory
+// the build has already or will have touched: the keys lie in out.nodes
+// (room for n - 1 ≥ 2n/8 nodes; written only once the keys are no longer
+// needed), the clusters in refs once those are copied to `sorted` (their
+// partitions' second buffer after them, or in spare). Every pass runs in
 // parallel on more than one thread, in blocks that do not depend on the
 // thread count.
-void build_clustered(PrimRef* refs, PrimRef* sorted, size_t n, const RootBounds& rb, Builder::Out& out,
-                     const BvhBuildOptions& opt) {
+void build_clustered(PrimRef* refs, PrimRef* sorted, PrimRef* spare, size_t n, const RootBounds& rb,
+                     Builder::Out& out, const BvhBuildOptions& opt) {
   static_assert(sizeof(BvhNode) >= 2 * 2 * sizeof(uint64_t));
   const bool parallel = out.parallel && n >= 2 * kSortBlock;
   const size_t block = parallel ? sort_block(n) : n, blocks = (n + block - 1) / block;
@@ -1503,8 +1508,8 @@ void build_clustered(PrimRef* refs, PrimRef* sorted, size_t n, const RootBounds&
   });
   // The depths of make_clusters and the cuts (as many as primitives at
   // most, and an end) after the keys in out.nodes: 16n + (n + 8) + 8(n + 1)
-  // bytes, within the nodes' 64(n - 1) for n > 1, dead before any node is
-  // written.
+  // bytes, within the nodes' 64(n - 1) for n > kSweepMax, dead before any
+  // node is written.
   static_assert(sizeof(Cut) == 8 && alignof(Cut) <= 8);
   uint8_t* depths = reinterpret_cast<uint8_t*>(std::min(keys, tmp) + 2 * n);
   Cut* cuts = reinterpret_cast<Cut*>(depths + ((n + 1 + 7) & ~size_t(7)));
@@ -1620,13 +1625,9 @@ void build_clustered(PrimRef* refs, PrimRef* sorted, size_t n, const RootBounds&
     }
   }
 
-  // Their second buffer after them, if it fits.
-  std::unique_ptr<BuildArray<PrimRef>> more;
-  PrimRef* c1 = refs + count;
-  if (2 * count > n) {
-    more = std::make_unique<BuildArray<PrimRef>>(count);
-    c1 = more->get();
-  }
+  // Their second buffer after them, if it fits (it does on the scenes
+  // measured: a cluster holds 4 to 9 primitives on average), else in spare.
+  PrimRef* c1 = 2 * count <= n ? refs + count : spare;
   ClusterBuilder(c0, c1, sorted, out, opt).run(count, n, box, cbox);
 }
 
@@ -1672,27 +1673,39 @@ Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options) {
   Bvh bvh;
   BvhScratch scratch;
   build_bvh(scene, options, bvh, scratch);
+  // The nodes' storage past the tree (room for n - 1 nodes, about twice
+  // what a tree takes; on more threads touched all over, as the nodes are
+  // made with gaps) back to the kernel: the vector keeps its capacity, not
+  // the memory. (A rebuild keeps it, to write there again.)
+#if defined(MADV_DONTNEED)
+  const uintptr_t page = uintptr_t(sysconf(_SC_PAGESIZE));
+  const uintptr_t b = (reinterpret_cast<uintptr_t>(bvh.nodes.data() + bvh.nodes.size()) + page - 1) & ~(page - 1);
+  const uintptr_t e = reinterpret_cast<uintptr_t>(bvh.nodes.data() + bvh.nodes.capacity()) & ~(page - 1);
+  if (page > 0 && e > b) madvise(reinterpret_cast<void*>(b), e - b, MADV_DONTNEED);
+#endif
   return bvh;
 }
 
 void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh, BvhScratch& work) {
   auto t0 = std::chrono::steady_clock::now();
   size_t nt = scene.num_triangles, ns = scene.num_spheres, n = nt + ns;
-  if (n >= kBvhMaxPrims) throw std::invalid_argument("build_bvh: too many primitives for the BVH's 27-bit leaf offsets");
   bvh.nodes.clear();
   bvh.prims.clear();
   bvh.bounds_min = bvh.bounds_max = Vec3{};
-  bvh.num_triangles = scene.num_triangles;
-  bvh.num_spheres = scene.num_spheres;
+  bvh.num_triangles = bvh.num_spheres = 0;
   bvh.num_leaves = bvh.max_depth = 0;
   bvh.build_seconds = 0;
+  if (n >= kBvhMaxPrims) throw std::invalid_argument("build_bvh: too many primitives for the BVH's 27-bit leaf offsets");
   if (n == 0) return;
+  bvh.num_triangles = scene.num_triangles;
+  bvh.num_spheres = scene.num_spheres;
 
   auto build = [&] {
-    // PrimRefs and the root's bounds in one pass (refs; as much scratch
+    // PrimRefs and the root's bounds in one pass (refs; twice as much scratch
     // space after them).
-    PrimRef* rp = static_cast<PrimRef*>(work.get(2 * n * sizeof(PrimRef)));
+    PrimRef* rp = static_cast<PrimRef*>(work.get(3 * n * sizeof(PrimRef)));
     PrimRef* scratch = rp + n;
+    PrimRef* spare = rp + 2 * n;  // touched only if the clusters need it
     auto make_refs = [&](size_t b, size_t e, RootBounds acc) {
       // Triangles (the first nt references), four lanes at a time.
       auto load = [](const Vec3& v) { return f4{v.x, v.y, v.z, 0.f}; };
@@ -1754,7 +1767,7 @@ void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh,
     if (n <= size_t(kSweepMax) || options.median_split || options.full_sweep || !options.clusters)
       Builder(rp, scratch, n, 0, out, options).run(rb.box, rb.cbox);
     else
-      build_clustered(rp, scratch, n, rb, out, options);
+      build_clustered(rp, scratch, spare, n, rb, out, options);
     const uint32_t count = out.count();
     if (parallel) compact(bvh.nodes.data(), used.data(), used.size());
     bvh.nodes.resize(count);
@@ -1762,10 +1775,18 @@ void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh,
     bvh.max_depth = out.max_depth();
   };
   // threads = 0: the current arena (a new arena would take every core).
-  if (options.threads > 0)
-    tbb::task_arena(options.threads).execute(build);
-  else
-    build();
+  // Nothing half-built is left behind when the build throws.
+  try {
+    if (options.threads > 0)
+      tbb::task_arena(options.threads).execute(build);
+    else
+      build();
+  } catch (...) {
+    bvh.nodes.clear();
+    bvh.prims.clear();
+    bvh.num_triangles = bvh.num_spheres = 0;
+    throw;
+  }
   const BvhNode& root = bvh.nodes[0];
   Box rb = child_box(root, 0);
   rb.grow(child_box(root, 1));

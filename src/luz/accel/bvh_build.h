@@ -88,12 +88,13 @@ struct Bvh {
   size_t bytes() const { return nodes.size() * sizeof(BvhNode) + prims.size() * sizeof(uint32_t); }
 };
 
-// Working memory a build keeps for the next one (64 bytes per primitive).
-// Fresh memory is costly: the kernel maps and zeroes every page at its
-// first touch, and on the VMs measured that took a third of a build's time
-// on 263k triangles. Rebuilding (an animation; a benchmark) with the same
-// BvhScratch and the same Bvh takes no fresh memory once they are large
-// enough.
+// Working memory a build keeps for the next one (96 bytes of address space
+// per primitive, of which a build touches 64 to 96). Fresh memory is
+// costly: the kernel maps and zeroes every page at its first touch, and on
+// the VMs measured that took a third of a build's time on 263k triangles.
+// Rebuilding (an animation; a benchmark) with the same BvhScratch and the
+// same Bvh takes no fresh memory once they are large enough, but for a few
+// small arrays.
 class BvhScratch {
  public:
   BvhScratch() = default;
@@ -114,7 +115,8 @@ class BvhScratch {
 Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options = {});
 
 // The same tree, into `bvh` (whose vectors' storage is reused where large
-// enough; every field is overwritten), with `scratch`'s memory.
+// enough; every field is overwritten), with `scratch`'s memory. If the build
+// throws, `bvh` is left empty.
 void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh, BvhScratch& scratch);
 
 // The tracer over `bvh` and the geometry arrays of `scene` (host pointers).
