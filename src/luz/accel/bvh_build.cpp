@@ -135,6 +135,10 @@ inline void set_boxes(BvhNode& n, const Box& a, const Box& b) {
 
 constexpr int kMaxBins = 32;
 constexpr size_t kParallelBinning = 1 << 15;  // bin nodes this large in parallel
+// ... and nodes of this many clusters (each stands for 4 to 9 primitives on
+// the scenes measured: the top levels of the staircase's and Sponza's
+// cluster trees would otherwise be binned and partitioned on one thread).
+constexpr size_t kParallelClusters = 1 << 14;
 constexpr size_t kParallelSubtree = 1 << 11;  // build subtrees this large as tasks
 constexpr int kSweepMax = 32;                 // small subtrees: exact sweeps at or below this size
 static_assert(kSweepMax <= 64);               // one bit per primitive in a uint64_t
@@ -321,9 +325,10 @@ void bin_range(const Binner& bn, const PrimRef* refs, size_t b, size_t e, Bins& 
 // kParallelBinning references on. (An out parameter: returned, the 3 KiB
 // of bins were copied at every node, 2.5% of the build.)
 template <bool kClusters = false>
-void bin_all(const Binner& bn, const PrimRef* refs, size_t b, size_t e, int nb, Bins& bins) {
+void bin_all(const Binner& bn, const PrimRef* refs, size_t b, size_t e, int nb, Bins& bins,
+             size_t parallel_from = kParallelBinning) {
   bins.clear(nb);
-  if (e - b < kParallelBinning) {
+  if (e - b < parallel_from) {
     bin_range<kClusters>(bn, refs, b, e, bins, nb);
     return;
   }
@@ -1409,7 +1414,7 @@ class ClusterBuilder {
     if (bn.degenerate()) return fallback(cb, ce, side, pb, pe, box, depth, at);
     const PrimRef* src = cl_[side];
     Bins bins;
-    bin_all<true>(bn, src, cb, ce, nb, bins);
+    bin_all<true>(bn, src, cb, ce, nb, bins, kParallelClusters);
     int axis, last;
     float best;
     if (!sweep_bins(bins, nb, bn.axis_ok(), axis, last, best)) {
@@ -1427,7 +1432,7 @@ class ClusterBuilder {
     }
     for (int i = last + 1; i < nb; ++i) rbox.grow(bins.lo[axis][i], bins.hi[axis][i]);
     PrimRef* dst = cl_[side ^ 1];
-    const size_t mid = m >= kParallelBinning && parallel_
+    const size_t mid = m >= kParallelClusters && parallel_
                            ? parallel_partition(src, dst, cb, ce, bn.side_test(axis, last), axis)
                            : partition(src, dst, cb, ce, cb, ce - 1, bn.side_test(axis, last), axis);
     // The children's centroid bounds from the bins, as in Builder::split (a
