@@ -26,7 +26,7 @@
 // them (page faults otherwise cost as much as the build above a million
 // primitives), and the nodes are made in the output vector itself
 // (BuildAllocator: no zeroing, no final copy; on more than one thread with
-// gaps, closed in place after).
+// gaps, closed after: compact).
 //
 // Where the time goes (the staircase, 263k triangles, one thread, on reused
 // memory; callgrind and perf agree within a few %): the small subtrees
@@ -322,7 +322,7 @@ void bin_range(const Binner& bn, const PrimRef* refs, size_t b, size_t e, Bins& 
 }
 
 // refs[b, e) binned (nb bins) into `bins`: in parallel blocks from
-// kParallelBinning references on. (An out parameter: returned, the 3 KiB
+// parallel_from references on. (An out parameter: returned, the 3 KiB
 // of bins were copied at every node, 2.5% of the build.)
 template <bool kClusters = false>
 void bin_all(const Binner& bn, const PrimRef* refs, size_t b, size_t e, int nb, Bins& bins,
@@ -483,10 +483,10 @@ class Builder {
       m = std::max(m, uint32_t(d));
       // Bits [b, e) of `used`; a word can be shared with another task's range.
       while (b < e) {
-        const uint32_t w = b / 64, i = b % 64, m = std::min<uint32_t>(e - b, 64 - i);
-        const uint64_t bits = (m == 64 ? ~uint64_t(0) : (uint64_t(1) << m) - 1) << i;
+        const uint32_t w = b / 64, i = b % 64, len = std::min<uint32_t>(e - b, 64 - i);
+        const uint64_t bits = (len == 64 ? ~uint64_t(0) : (uint64_t(1) << len) - 1) << i;
         std::atomic_ref<uint64_t>(used[w]).fetch_or(bits, std::memory_order_relaxed);
-        b += m;
+        b += len;
       }
     }
     void note_depth(int d) {
@@ -1067,20 +1067,6 @@ void build_deallocate(void* p, size_t bytes, size_t align) noexcept {
 }
 
 namespace {
-
-// An uninitialised array of n T (a std::vector would zero it first), on huge
-// pages when large.
-template <class T>
-struct BuildArray {
-  struct Free {
-    size_t bytes;
-    void operator()(T* p) const { build_deallocate(p, bytes, alignof(T)); }
-  };
-  std::unique_ptr<T[], Free> ptr;
-  explicit BuildArray(size_t n)
-      : ptr(static_cast<T*>(build_allocate(n * sizeof(T), alignof(T))), Free{n * sizeof(T)}) {}
-  T* get() const { return ptr.get(); }
-};
 
 Box child_box(const BvhNode& n, int k) {
   Box b;
