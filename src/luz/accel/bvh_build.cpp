@@ -29,13 +29,14 @@
 // gaps, closed after: compact).
 //
 // Where the time goes (the staircase, 263k triangles, one thread, on reused
-// memory; callgrind and perf agree within a few %): the small subtrees
-// about half (their sweeps 41%, the presorts and sorted lists 10%), the
-// clusters' binning, sweeps and partitions 19%, make_clusters 10% (6%
-// reordering the runs of equal Morton codes: 44% of the staircase's
-// triangles), the Morton keys, radix sort and gather 12%, the PrimRefs 3%.
-// No line stands out: the sweeps' cost is spread over their min/max, area
-// and partition steps. The primitive builder took 1.35× as long on Sponza
+// memory; callgrind, 1,064 instructions per primitive): the small subtrees
+// 46% (their sweeps and list partitions 37%, the presorts 9%), the
+// clusters' binning, sweeps and partitions 20%, the Morton keys, radix
+// sort, gather and cuts 19%, reordering the runs of equal Morton codes 9%
+// (57% of the staircase's triangles), the PrimRefs 4%. No line stands out:
+// the sweeps' cost is spread over their min/max, area and partition steps.
+// At about 2.5 instructions per cycle, fewer instructions did not always
+// measure faster (bench/RESULTS.md). The primitive builder took 1.35× as long on Sponza
 // (1.6× on the staircase) before kClusterSweep: binning 32%, the small
 // subtrees 33%, partition and bin sweeps 19%, the depth-first renumbering
 // 5%. Fresh memory is slow on the VMs measured: on the staircase, a build
