@@ -1121,9 +1121,11 @@ struct RootBounds {
 // triangles of LooseCentroidBoundsStillSplitBySah).
 //
 // Measured against the primitive builder (SAH cost averaged over 9..32
-// bins, as it varies by a few % from one bin count to the next): Sponza
-// -0.2%, Sponza tiled 4× +0.4%, the staircase +0.3%, the Stanford bunny
-// +0.6%, the dense spots of ClustersOnDenseSpotsInALargeScene 0.0%. Cells
+// bins, as it varies by a few % from one bin count to the next; before the
+// cubes below): Sponza -0.2%, Sponza tiled 4× +0.4%, the staircase +0.3%,
+// the Stanford bunny +0.6%, the dense spots of
+// ClustersOnDenseSpotsInALargeScene 0.0% (globally; inside the spots, see
+// below). With the cubes: Sponza -0.24%, the staircase +0.01%. Cells
 // of 2^-6 instead of 2^-7 build ~5% faster but cost +2% on the tiled Sponza
 // and the bunny; clusters of 8 with neither the cell limit nor the rules
 // above cost +3% to +4% everywhere.
@@ -1133,10 +1135,12 @@ struct RootBounds {
 // than high, and a small dense object in it was cut into slabs: clusters
 // spanning the object, which no split below them could separate (the
 // dense spots of ClustersOnDenseSpotsInALargeScene, cells 600 times longer
-// than high: SAH cost inside the spots 2.7× the primitive builder's; with
-// cubes 1.07×). SAH cost at 32 bins, axis by axis -> cubes: the staircase
-// 45.373 -> 45.076, Sponza 68.166 -> 68.532 (the primitive builder: 45.199,
-// 68.102); the build's speed the same.
+// than high: SAH cost inside the spots 2.5× the primitive builder's; with
+// cubes 1.07×). SAH cost averaged over 9..32 bins, axis by axis -> cubes:
+// Sponza 68.077 -> 68.051, the staircase 45.399 -> 45.354 (at 32 bins
+// alone: 68.166 -> 68.532 and 45.373 -> 45.076); the build's speed the
+// same. Where the centroid bounds are not finite (far beyond FLT_MAX
+// apart), the grid stays axis by axis, as before.
 
 constexpr int kMortonBits = 10;                    // per axis
 constexpr int kClusterMax = 16;                    // primitives per cluster at most
@@ -1155,6 +1159,11 @@ inline Box cube(const Box& cb) {
   Box c;
   c.lo = xyz(cb.lo);
   c.hi = c.lo + f4{side, side, side, 0.f};
+  // Extents or corners not finite (or NaN): the bounds as they are, so
+  // that the finite axes keep their bins.
+  const float big = std::numeric_limits<float>::max();
+  for (int a = 0; a < 3; ++a)
+    if (!(e[a] <= big) || !(std::fabs(c.hi[a]) <= big)) return cb;
   return c;
 }
 
@@ -1219,8 +1228,8 @@ void refine_run(uint64_t* keys, PrimRef* sorted, size_t m, uint8_t* d) {
   const Binner grid(cube(cb), 1 << kMortonBits);
   if (grid.degenerate()) return;
   for (size_t i = 0; i < m; ++i) keys[i] = uint64_t(morton(grid.bin(centroid2(sorted[i])))) << 32 | i;
-  // The run's copy on the stack (the staircase's runs: 17 to 256
-  // primitives), on the heap if longer.
+  // The run's copy on the stack (the staircase's runs: 17 to 297
+  // primitives, 3 of them over 256), on the heap if longer.
   constexpr size_t kLocal = 256;
   PrimRef local[kLocal];
   std::vector<PrimRef> heap;
