@@ -46,7 +46,6 @@
 #include "luz/accel/bvh_build.h"
 
 #include <tbb/blocked_range.h>
-#include <tbb/combinable.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
@@ -462,8 +461,6 @@ class Builder {
     uint64_t* used = nullptr;           // on more: bit k set once node k is made (zeroed before)
     std::atomic<uint32_t> next{0};      // on one thread: nodes made; on more: slots handed out
     std::atomic<uint32_t> depth{0};     // on one thread: the deepest inner node's depth (root: 1)
-    tbb::combinable<uint32_t> made{};   // on more: nodes made
-    tbb::combinable<uint32_t> deep{};   // on more: the deepest inner node's depth
 
     // On more than one thread a node's number is not its place: the nodes
     // are stored densely, in the order each thread makes them, from slots
@@ -480,7 +477,14 @@ class Builder {
       uint32_t pos = 0, end = 0;
     };
     static constexpr uint32_t kChunk = 64;
-    tbb::enumerable_thread_specific<Chunk> chunks{};
+    // On more than one thread, each thread's: its chunk, the nodes it made
+    // and the deepest one's depth (one lookup of the thread's entry per
+    // node or small subtree: it hashes the thread's id).
+    struct Local {
+      Chunk chunk;
+      uint32_t made = 0, deep = 0;
+    };
+    tbb::enumerable_thread_specific<Local> local{};
 
     // A new node's number and storage (its pad set; set_boxes and the
     // children fill the rest).
@@ -490,7 +494,7 @@ class Builder {
     };
     // On more than one thread: storage for node `id`, from chunk c (the
     // calling thread's).
-    BvhNode* slot(Chunk& c, uint32_t id) {
+    BvhNode* slot(Chunk& c, uint32_t id) {  // (c: the calling thread's)
       if (c.pos == c.end) {
         c.pos = next.fetch_add(kChunk, std::memory_order_relaxed);
         c.end = c.pos + kChunk;
@@ -504,8 +508,9 @@ class Builder {
     // thread.
     Taken take(uint32_t at, int d) {
       if (parallel) {
-        made_range(at, at + 1, d);
-        return {at, slot(chunks.local(), at)};
+        Local& l = local.local();
+        made_range(l, at, at + 1, d);
+        return {at, slot(l.chunk, at)};
       }
       note_depth(d);
       uint32_t k = next.load(std::memory_order_relaxed);
@@ -514,10 +519,9 @@ class Builder {
       return {k, nodes + k};
     }
     // On more than one thread: nodes [b, e) made, the deepest at depth d.
-    void made_range(uint32_t b, uint32_t e, int d) {
-      made.local() += e - b;
-      uint32_t& m = deep.local();
-      m = std::max(m, uint32_t(d));
+    void made_range(Local& l, uint32_t b, uint32_t e, int d) {
+      l.made += e - b;
+      l.deep = std::max(l.deep, uint32_t(d));
       // Bits [b, e) of `used`; a word can be shared with another task's range.
       while (b < e) {
         const uint32_t w = b / 64, i = b % 64, len = std::min<uint32_t>(e - b, 64 - i);
@@ -530,9 +534,17 @@ class Builder {
       depth.store(std::max(depth.load(std::memory_order_relaxed), uint32_t(d)), std::memory_order_relaxed);
     }
     // The number of nodes made.
-    uint32_t count() { return parallel ? made.combine(std::plus<uint32_t>()) : next.load(); }
+    uint32_t count() {
+      if (!parallel) return next.load();
+      uint32_t c = 0;
+      for (const Local& l : local) c += l.made;
+      return c;
+    }
     uint32_t max_depth() {
-      return parallel ? deep.combine([](uint32_t a, uint32_t b) { return std::max(a, b); }) : depth.load();
+      if (!parallel) return depth.load();
+      uint32_t d = 0;
+      for (const Local& l : local) d = std::max(d, l.deep);
+      return d;
     }
   };
 
@@ -789,12 +801,13 @@ class Builder {
         set.hi[a][k] = (f4)((i4)p[i].hi | i4{0, 0, 0, i});
       }
     SmallView v{{set.lo[0], set.lo[1], set.lo[2]}, {set.hi[0], set.hi[1], set.hi[2]}};
+    Out::Local* local = out_.parallel ? &out_.local.local() : nullptr;
     Block block{out_, out_.parallel ? at : out_.next.load(std::memory_order_relaxed),
-                out_.parallel ? &out_.chunks.local() : nullptr};
+                local ? &local->chunk : nullptr};
     const uint32_t start = block.next;
     const uint32_t root = small_node(v, n, p, first, box, depth, may_leaf, block);
-    if (out_.parallel) {
-      out_.made_range(start, block.next, block.depth);
+    if (local) {
+      out_.made_range(*local, start, block.next, block.depth);
     } else {
       out_.next.store(block.next, std::memory_order_relaxed);
       out_.note_depth(block.depth);
@@ -1880,9 +1893,8 @@ void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh,
     // (The PrimRefs' 96n bytes are free again: room for the n - 1 nodes.)
     if (parallel) {
       const size_t total = out.next.load();
-      out.chunks.combine_each([&](const Builder::Out::Chunk& c) {
-        for (uint32_t i = c.pos; i < c.end; ++i) bvh.nodes[i].pad[0] = kHole;
-      });
+      for (const Builder::Out::Local& l : out.local)
+        for (uint32_t i = l.chunk.pos; i < l.chunk.end; ++i) bvh.nodes[i].pad[0] = kHole;
       compact(bvh.nodes.data(), total, used.data(), used.size(), reinterpret_cast<BvhNode*>(rp));
     }
     bvh.nodes.resize(count);
