@@ -909,20 +909,26 @@ TEST(Bvh, SameTreeOnAnyThreadCount) {
   v.positions = pos.data();
   v.indices = idx.data();
   v.num_triangles = uint32_t(idx.size() / 3);
-  Bvh ref;
-  for (int threads : {1, 2, 3, 8}) {
-    BvhBuildOptions o;
-    o.threads = threads;
-    Bvh b = build_bvh(v, o);
-    if (threads == 1) {
-      ref = std::move(b);
-      continue;
+  // Leaves of one primitive too: n - 1 nodes, all the room a parallel
+  // build's dense node storage has besides its threads' chunks' tails.
+  for (uint32_t leaf : {8u, 1u}) {
+    Bvh ref;
+    for (int threads : {1, 2, 3, 8}) {
+      BvhBuildOptions o;
+      o.threads = threads;
+      o.max_leaf_size = leaf;
+      Bvh b = build_bvh(v, o);
+      if (threads == 1) {
+        if (leaf == 1) EXPECT_EQ(b.nodes.size(), size_t(v.num_triangles) - 1);
+        ref = std::move(b);
+        continue;
+      }
+      ASSERT_EQ(b.nodes.size(), ref.nodes.size()) << threads << " threads, leaves of " << leaf;
+      EXPECT_EQ(0, std::memcmp(b.nodes.data(), ref.nodes.data(), b.nodes.size() * sizeof(BvhNode))) << threads;
+      EXPECT_EQ(b.prims, ref.prims) << threads << " threads, leaves of " << leaf;
+      EXPECT_EQ(b.max_depth, ref.max_depth) << threads << " threads, leaves of " << leaf;
+      EXPECT_EQ(b.num_leaves, ref.num_leaves) << threads << " threads, leaves of " << leaf;
     }
-    ASSERT_EQ(b.nodes.size(), ref.nodes.size()) << threads << " threads";
-    EXPECT_EQ(0, std::memcmp(b.nodes.data(), ref.nodes.data(), b.nodes.size() * sizeof(BvhNode))) << threads;
-    EXPECT_EQ(b.prims, ref.prims) << threads << " threads";
-    EXPECT_EQ(b.max_depth, ref.max_depth) << threads << " threads";
-    EXPECT_EQ(b.num_leaves, ref.num_leaves) << threads << " threads";
   }
 }
 

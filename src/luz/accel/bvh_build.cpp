@@ -47,6 +47,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
@@ -440,16 +441,18 @@ class ClusterBuilder;
 class Builder {
  public:
   // Where a build writes: nodes (room for max(n - 1, 1) of them: a binary
-  // tree over n leaves has n - 1 inner nodes at most) and the n output
-  // references; how it numbers the nodes.
+  // tree over n leaves has n - 1 inner nodes at most; on more than one
+  // thread, room for the threads' chunks' tails too, below) and the n
+  // output references; how it numbers the nodes.
   //
   // Node numbers: on one thread, the nodes are numbered as they are made,
   // depth first. On more, every subtree of n primitives owns a range of
   // n - 1 numbers (as many inner nodes as it can have): its root takes the
   // first, its children's subtrees the next ones, in order. No shared
-  // counter (its cache line would pass from core to core at every node:
-  // measured, 2 threads no faster than 1 on the staircase); the ranges'
-  // unused ends are gaps, which the renumbering (compact) closes. Every
+  // counter per node (its cache line would pass from core to core at every
+  // node: measured, 2 threads no faster than 1 on the staircase); the
+  // ranges' unused ends are gaps in the numbers (not in the storage, see
+  // Out), which the renumbering (compact) closes. Every
   // subtree's range starts with its root and holds its left subtree's
   // range before its right one's, so the numbers are in depth-first order
   // already, gaps aside: the serial numbers are the ranks among the used
@@ -459,6 +462,7 @@ class Builder {
     uint32_t* prims;
     bool parallel;                      // more than one thread
     uint64_t* used = nullptr;           // on more: bit k set once node k is made (zeroed before)
+    size_t capacity = 0;                // room in `nodes`
     std::atomic<uint32_t> next{0};      // on one thread: nodes made; on more: slots handed out
     std::atomic<uint32_t> depth{0};     // on one thread: the deepest inner node's depth (root: 1)
 
@@ -472,7 +476,11 @@ class Builder {
     // staircase: reused memory 16.8-17.1 -> 18.3-18.6 Mprims/s, fresh
     // memory 12.5-14.0 -> 13.4-17.1; Sponza fresh 10.9-12.9 -> 12.3-14.8.)
     // Left unused at the end: each thread's chunk's tail, marked kHole
-    // before compact().
+    // before compact(). A thread takes a new chunk only when its own is
+    // full, so the slots handed out are the nodes plus at most kChunk per
+    // thread that took part: bvh.nodes has room for the threads TBB may
+    // run (global_control's max_allowed_parallelism, and the caller), and
+    // slot() checks it all the same.
     struct Chunk {
       uint32_t pos = 0, end = 0;
     };
@@ -494,10 +502,12 @@ class Builder {
     };
     // On more than one thread: storage for node `id`, from chunk c (the
     // calling thread's).
-    BvhNode* slot(Chunk& c, uint32_t id) {  // (c: the calling thread's)
+    BvhNode* slot(Chunk& c, uint32_t id) {
       if (c.pos == c.end) {
-        c.pos = next.fetch_add(kChunk, std::memory_order_relaxed);
-        c.end = c.pos + kChunk;
+        const uint32_t pos = next.fetch_add(kChunk, std::memory_order_relaxed);
+        if (size_t(pos) + kChunk > capacity) throw std::logic_error("build_bvh: node storage exhausted");
+        c.pos = pos;
+        c.end = pos + kChunk;
       }
       BvhNode* p = nodes + c.pos++;
       p->pad[0] = id;
@@ -1076,7 +1086,7 @@ class Builder {
     return node.id;
   }
 
-  // Fills inner node `node` split by s; its children are in buf_[side].
+  // Fills inner node t split by s; its children are in buf_[side].
   // (Its numbers from `at`: the children's ranges follow.)
   void fill(BvhNode& t, size_t b, size_t e, int side, const Split& s, int depth, uint32_t at) {
     const uint32_t lat = at + 1, rat = at + uint32_t(s.mid - b);
@@ -1883,12 +1893,11 @@ void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh,
     // depth first; on more, stored as made, ordered after (compact).
     const bool parallel = tbb::this_task_arena::max_concurrency() > 1;
     // (On more threads, room for the chunks' unused tails too: see Out.)
-    const size_t slots =
-        std::max<size_t>(n - 1, 1) +
-        (parallel ? size_t(Builder::Out::kChunk) * size_t(tbb::this_task_arena::max_concurrency() + 1) : 0);
+    const size_t threads = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+    const size_t slots = std::max<size_t>(n - 1, 1) + (parallel ? size_t(Builder::Out::kChunk) * (threads + 1) : 0);
     bvh.nodes.resize(slots);
     std::vector<uint64_t> used(parallel ? (std::max<size_t>(n - 1, 1) + 63) / 64 : 0);
-    Builder::Out out{bvh.nodes.data(), bvh.prims.data(), parallel, used.data()};
+    Builder::Out out{bvh.nodes.data(), bvh.prims.data(), parallel, used.data(), slots};
     if (n <= size_t(kSweepMax) || options.median_split || options.full_sweep || !options.clusters)
       Builder(rp, scratch, n, 0, out, options).run(rb.box, rb.cbox);
     else
