@@ -1186,7 +1186,8 @@ void expect_clusters_near_primitive_sah(const char* what, const std::vector<Vec3
     for (size_t i = 0; i < spot_groups[g].size(); ++i) {
       const Spot& spot = spot_groups[g][i];
       double x = sah_inside(what, b, spot), y = sah_inside(what, bp, spot);
-      std::printf("[%s] group %zu, spot %zu (%u primitives): SAH cost inside %.3f (clusters) vs %.3f (primitive builder)\n",
+      std::printf("[%s] group %zu, spot %zu (%u primitives): SAH cost inside %.3f (clusters) vs %.3f "
+                  "(primitive builder)\n",
                   what, g, i, spot.prims, x, y);
       in += x, in_prim += y;
     }
@@ -1219,7 +1220,8 @@ TEST(Bvh, ClustersRefineRunsAroundTheLimits) {
   std::vector<std::vector<Spot>> runs(2);  // by rank (up to 128), by std::sort (more)
   for (int n : {17, 18, 24, 31, 32, 33, 47, 64, 65, 128, 129, 200}) {
     // (Their triangles reach 0.06 from the centre.)
-    runs[n > 128].push_back({{centre() - Vec3{0.07f, 0.07f, 0.07f}, centre() + Vec3{0.07f, 0.07f, 0.07f}}, uint32_t(n)});
+    const Vec3 r{0.07f, 0.07f, 0.07f};
+    runs[n > 128].push_back({{centre() - r, centre() + r}, uint32_t(n)});
     for (int i = 0; i < n; ++i) {
       Vec3 c = centre() + uniform_direction(rng) * (0.05f * rng.uniform());
       Vec3 d = uniform_direction(rng) * 0.01f, e = uniform_direction(rng) * 0.01f;

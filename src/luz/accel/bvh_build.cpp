@@ -36,13 +36,14 @@
 // (57% of the staircase's triangles), the PrimRefs 4%. No line stands out:
 // the sweeps' cost is spread over their min/max, area and partition steps.
 // At about 2.5 instructions per cycle, fewer instructions did not always
-// measure faster (bench/RESULTS.md). The primitive builder took 1.35× as long on Sponza
-// (1.6× on the staircase) before kClusterSweep: binning 32%, the small
-// subtrees 33%, partition and bin sweeps 19%, the depth-first renumbering
-// 5%. Fresh memory is slow on the VMs measured: on the staircase, a build
-// on freshly mapped memory (about 95 bytes per primitive: PrimRefs twice,
-// the nodes, the references) takes 1.4-1.9× as long as the same build on
-// memory reused (BvhScratch), the kernel zeroing and mapping pages.
+// measure faster (bench/RESULTS.md). The primitive builder took 1.35× as
+// long on Sponza (1.6× on the staircase) before kClusterSweep: binning 32%,
+// the small subtrees 33%, partition and bin sweeps 19%, the depth-first
+// renumbering 5%. Fresh memory can be slow on the VMs measured: on the
+// staircase, a build on freshly mapped memory (about 95 bytes per
+// primitive: PrimRefs twice, the nodes, the references) took 1.4-1.9× as
+// long as the same build on memory reused (BvhScratch) at 0d48be2, the
+// kernel zeroing and mapping pages (1.04× in the quieter run at 29cebca).
 #include "luz/accel/bvh_build.h"
 
 #include <tbb/blocked_range.h>
@@ -135,6 +136,7 @@ inline void set_boxes(BvhNode& n, const Box& a, const Box& b) {
 }
 
 constexpr int kMaxBins = 32;
+constexpr uint32_t kHole = ~uint32_t(0);  // a parallel build's unused node slot (its pad[0]; see Builder::Out)
 constexpr size_t kParallelBinning = 1 << 15;  // bin nodes this large in parallel
 // ... and nodes of this many clusters (each stands for 4 to 9 primitives on
 // the scenes measured: the top levels of the staircase's and Sponza's
@@ -475,11 +477,11 @@ class Builder {
     // about 28: on fresh memory, page faults. Measured, 2 threads, the
     // staircase: reused memory 16.8-17.1 -> 18.3-18.6 Mprims/s, fresh
     // memory 12.5-14.0 -> 13.4-17.1; Sponza fresh 10.9-12.9 -> 12.3-14.8.)
-    // Left unused at the end: each thread's chunk's tail, marked kHole
-    // before compact(). A thread takes a new chunk only when its own is
-    // full, so the slots handed out are the nodes plus at most kChunk per
-    // thread that took part: bvh.nodes has room for the threads TBB may
-    // run (global_control's max_allowed_parallelism, and the caller), and
+    // Left unused at the end: each thread's chunk's tail (mark_holes()). A
+    // thread takes a new chunk only when its own is full, so the slots
+    // handed out are the nodes plus at most kChunk per thread that took
+    // part: bvh.nodes has room for the threads TBB may run
+    // (global_control's max_allowed_parallelism, and the caller), and
     // slot() checks it all the same.
     struct Chunk {
       uint32_t pos = 0, end = 0;
@@ -514,19 +516,30 @@ class Builder {
       p->pad[1] = 0;
       return p;
     }
+    // Node `id`'s storage: from chunk c on more than one thread (the
+    // calling thread's), else its own slot.
+    Taken place(uint32_t id, Chunk* c) {
+      if (c) return {id, slot(*c, id)};
+      nodes[id].pad[0] = nodes[id].pad[1] = 0;
+      return {id, nodes + id};
+    }
     // A new node at depth d, first of the range [at, ...) on more than one
     // thread.
     Taken take(uint32_t at, int d) {
       if (parallel) {
         Local& l = local.local();
         made_range(l, at, at + 1, d);
-        return {at, slot(l.chunk, at)};
+        return place(at, &l.chunk);
       }
       note_depth(d);
-      uint32_t k = next.load(std::memory_order_relaxed);
+      const uint32_t k = next.load(std::memory_order_relaxed);
       next.store(k + 1, std::memory_order_relaxed);
-      nodes[k].pad[0] = nodes[k].pad[1] = 0;
-      return {k, nodes + k};
+      return place(k, nullptr);
+    }
+    // After a parallel build: the chunks' unused tails marked kHole.
+    void mark_holes() {
+      for (const Local& l : local)
+        for (uint32_t i = l.chunk.pos; i < l.chunk.end; ++i) nodes[i].pad[0] = kHole;
     }
     // On more than one thread: nodes [b, e) made, the deepest at depth d.
     void made_range(Local& l, uint32_t b, uint32_t e, int d) {
@@ -567,10 +580,7 @@ class Builder {
     int depth = 0;
     Out::Taken take(int d) {
       depth = std::max(depth, d);
-      const uint32_t id = next++;
-      if (chunk) return {id, out.slot(*chunk, id)};
-      out.nodes[id].pad[0] = out.nodes[id].pad[1] = 0;
-      return {id, out.nodes + id};
+      return out.place(next++, chunk);
     }
   };
 
@@ -1160,8 +1170,8 @@ struct RootBounds {
 // kClusterMax primitives instead of primitives (BvhBuildOptions::clusters),
 // so that those levels touch a few times fewer references. The primitives
 // are sorted once by the Morton codes of their centroids (kMortonBits per
-// axis over the cube around the centroid bounds; three radix passes), and the sorted list
-// is cut into cells of the codes' binary radix tree (make_clusters): each
+// axis over the cube around the centroid bounds; three radix passes), and
+// the sorted list is cut into cells of the codes' binary radix tree (make_clusters): each
 // cluster is the largest cell around its primitives that holds at most
 // kClusterMax of them and spans at most 2^-kClusterLevel of the grid's
 // side. More than kClusterMax primitives in one cell of the grid
@@ -1578,9 +1588,10 @@ void build_clustered(PrimRef* refs, PrimRef* sorted, PrimRef* spare, size_t n, c
 
   // Keys: the Morton codes of the centroids on the 2^kMortonBits grid over
   // the cube around the centroid bounds (binned as the SAH bins them, into
-  // 1024 bins per axis), over the references' indices. Sorted by three radix passes, one
-  // per kMortonBits bits (on one thread, all three histograms are counted
-  // here; in parallel, each pass counts its blocks first).
+  // 1024 bins per axis), over the references' indices. Sorted by three
+  // radix passes, one per kMortonBits bits (on one thread, all three
+  // histograms are counted here; in parallel, each pass counts its blocks
+  // first).
   // (Each reuse of out.nodes' storage starts its objects' lifetimes, here
   // and below: for these trivial types, no code.)
   uint64_t* keys = reinterpret_cast<uint64_t*>(out.nodes);
@@ -1758,7 +1769,6 @@ void build_clustered(PrimRef* refs, PrimRef* sorted, PrimRef* spare, size_t n, c
 // the nodes; memory the build has touched already, so no page faults):
 // blocks of slots to their final places in temp, then temp back to the
 // front of `slots`.
-constexpr uint32_t kHole = ~uint32_t(0);
 void compact(BvhNode* slots, size_t total, const uint64_t* mask, size_t words, BvhNode* temp) {
   std::vector<uint32_t> before(words + 1);  // used numbers in the words before
   before[0] = 0;
@@ -1905,10 +1915,8 @@ void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh,
     const uint32_t count = out.count();
     // (The PrimRefs' 96n bytes are free again: room for the n - 1 nodes.)
     if (parallel) {
-      const size_t total = out.next.load();
-      for (const Builder::Out::Local& l : out.local)
-        for (uint32_t i = l.chunk.pos; i < l.chunk.end; ++i) bvh.nodes[i].pad[0] = kHole;
-      compact(bvh.nodes.data(), total, used.data(), used.size(), reinterpret_cast<BvhNode*>(rp));
+      out.mark_holes();
+      compact(bvh.nodes.data(), out.next.load(), used.data(), used.size(), reinterpret_cast<BvhNode*>(rp));
     }
     bvh.nodes.resize(count);
     bvh.num_leaves = count + (n > 1);  // one prim: a leaf and an empty one
