@@ -25,6 +25,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <string>
 
 #include "temp_dir.h"
@@ -83,6 +84,48 @@ TEST(TextureLookup, BilinearMatchesHandComputedValuesAndWraps) {
   EXPECT_NEAR(t.at(-0.1f, 0.5f / 3), 0.8 * 25 + 0.2 * 5, eps);
   // A non-finite coordinate reads as 0 (no out-of-range index).
   EXPECT_EQ(t.at(NAN, INFINITY), t.at(0.f, 0.f));
+}
+
+// The taps texture_lookup reads and SceneView::prefetch_texture asks the
+// caches for lie inside the texture for any uv, non-finite and huge ones
+// too (a prefetch outside would be harmless on x86 but not a lookup), and
+// the lookup reads exactly those four texels: a texture whose texels
+// outside the taps are poisoned (255) reads the taps' own mix.
+TEST(TextureLookup, BilinearTapsStayInsideTheTextureForAnyUv) {
+  const float odd[] = {0.f, -0.f, 1.f, -1.f, 0.5f, 1e-30f, -1e-30f, 0.99999994f, 1.00000012f, 3e7f, -3e7f,
+                       1e30f, -1e30f, INFINITY, -INFINITY, NAN};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> any(-5.f, 5.f);
+  for (uint32_t w : {1u, 2u, 3u, 7u}) {
+    for (uint32_t h : {1u, 4u}) {
+      TextureDesc d;
+      d.width = w, d.height = h;
+      d.scale = {1.5f, -2.f}, d.shift = {0.25f, 0.75f};
+      std::vector<Vec2> uvs;
+      for (float u : odd)
+        for (float v : odd) uvs.push_back({u, v});
+      for (int k = 0; k < 2000; ++k) uvs.push_back({any(rng), any(rng)});
+      for (Vec2 uv : uvs) {
+        const BilinearTaps t = bilinear_taps(d, uv);
+        ASSERT_LT(t.i0, w) << uv.x << " " << uv.y;
+        ASSERT_LT(t.i1, w);
+        ASSERT_LT(t.j0, h);
+        ASSERT_LT(t.j1, h);
+        ASSERT_TRUE(t.fx >= 0.f && t.fx <= 1.f && t.fy >= 0.f && t.fy <= 1.f);
+        // Poison everything but the taps (value 10 + tap number there).
+        std::vector<uint32_t> texels(size_t(w) * h, pack_rgba8(255, 255, 255));
+        texels[t.j0 * w + t.i0] = pack_rgba8(10, 10, 10);
+        texels[t.j0 * w + t.i1] = pack_rgba8(11, 11, 11);
+        texels[t.j1 * w + t.i0] = pack_rgba8(12, 12, 12);
+        texels[t.j1 * w + t.i1] = pack_rgba8(13, 13, 13);
+        d.srgb = false;
+        const float got = texture_lookup(d, texels.data(), nullptr, uv).x * 255.f;
+        ASSERT_GE(got, 10.f - 1e-3f);
+        ASSERT_LE(got, 13.f + 1e-3f);
+        texture_prefetch(d, texels.data(), uv);
+      }
+    }
+  }
 }
 
 TEST(TextureLookup, NearestScaleAndOffset) {

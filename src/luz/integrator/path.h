@@ -288,6 +288,9 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
     ++rays;
     const VertexRandom u = draw_vertex_random(sampler, st.depth, params);
     bool found = tracer.intersect(st.ray, hit);
+    // A textured hit's texels are fetched while the shadow query runs
+    // (staircase, 2 threads: 0.523 -> 0.566 Msamples/s; untextured: no change).
+    if (found) scene.prefetch_texture(hit);
     trace_shadow();
     path_vertex(scene, st, found, hit, sampler, params, u, sq);
   }

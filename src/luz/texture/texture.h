@@ -52,31 +52,62 @@ LUZ_INLINE Color texel_color(uint32_t t, bool srgb, const float* srgb_table) {
   return {float(r) * s, float(g) * s, float(b) * s};
 }
 
+// The bilinear filter's four texels around uv: columns i0, i1, rows j0, j1
+// (wrapped around), and the weights fx, fy of i1 and j1.
+struct BilinearTaps {
+  uint32_t i0, i1, j0, j1;
+  float fx, fy;
+};
+
+LUZ_INLINE BilinearTaps bilinear_taps(const TextureDesc& tex, Vec2 uv) {
+  const float u = wrap_unit(uv.x * tex.scale.x + tex.shift.x), v = wrap_unit(uv.y * tex.scale.y + tex.shift.y);
+  const uint32_t w = tex.width, h = tex.height;
+  // Continuous texel coordinates: texel centres at integers. x in [-0.5, w - 0.5).
+  const float x = u * float(w) - 0.5f, y = v * float(h) - 0.5f;
+  const float x0f = floorf(x), y0f = floorf(y);
+  // x0 in [-1, w - 1]: -1 wraps to the last column, x0 + 1 = w to the first.
+  const int x0 = int(x0f), y0 = int(y0f);
+  BilinearTaps t;
+  t.fx = x - x0f, t.fy = y - y0f;
+  t.i0 = x0 < 0 ? w - 1 : uint32_t(x0), t.i1 = uint32_t(x0 + 1) >= w ? 0u : uint32_t(x0 + 1);
+  t.j0 = y0 < 0 ? h - 1 : uint32_t(y0), t.j1 = uint32_t(y0 + 1) >= h ? 0u : uint32_t(y0 + 1);
+  return t;
+}
+
 // The texture's linear RGB value at uv. `texels` is the whole texel array,
 // `srgb_table` the 256 decoded sRGB values (srgb_to_linear(k / 255)).
 LUZ_INLINE Color texture_lookup(const TextureDesc& tex, const uint32_t* texels, const float* srgb_table, Vec2 uv) {
-  const float u = wrap_unit(uv.x * tex.scale.x + tex.shift.x), v = wrap_unit(uv.y * tex.scale.y + tex.shift.y);
   const uint32_t w = tex.width, h = tex.height;
   const uint32_t* img = texels + tex.offset;
   if (tex.filter == TextureFilter::Nearest) {
+    const float u = wrap_unit(uv.x * tex.scale.x + tex.shift.x), v = wrap_unit(uv.y * tex.scale.y + tex.shift.y);
     uint32_t i = uint32_t(u * float(w)), j = uint32_t(v * float(h));
     i = i < w ? i : w - 1;  // u · w may round up to w
     j = j < h ? j : h - 1;
     return texel_color(img[j * w + i], tex.srgb, srgb_table);
   }
-  // Continuous texel coordinates: texel centres at integers. x in [-0.5, w - 0.5).
-  const float x = u * float(w) - 0.5f, y = v * float(h) - 0.5f;
-  const float x0f = floorf(x), y0f = floorf(y);
-  const float fx = x - x0f, fy = y - y0f;
-  // x0 in [-1, w - 1]: -1 wraps to the last column, x0 + 1 = w to the first.
-  const int x0 = int(x0f), y0 = int(y0f);
-  const uint32_t i0 = x0 < 0 ? w - 1 : uint32_t(x0), i1 = uint32_t(x0 + 1) >= w ? 0u : uint32_t(x0 + 1);
-  const uint32_t j0 = y0 < 0 ? h - 1 : uint32_t(y0), j1 = uint32_t(y0 + 1) >= h ? 0u : uint32_t(y0 + 1);
-  const Color c00 = texel_color(img[j0 * w + i0], tex.srgb, srgb_table);
-  const Color c10 = texel_color(img[j0 * w + i1], tex.srgb, srgb_table);
-  const Color c01 = texel_color(img[j1 * w + i0], tex.srgb, srgb_table);
-  const Color c11 = texel_color(img[j1 * w + i1], tex.srgb, srgb_table);
+  const BilinearTaps t = bilinear_taps(tex, uv);
+  const float fx = t.fx, fy = t.fy;
+  const Color c00 = texel_color(img[t.j0 * w + t.i0], tex.srgb, srgb_table);
+  const Color c10 = texel_color(img[t.j0 * w + t.i1], tex.srgb, srgb_table);
+  const Color c01 = texel_color(img[t.j1 * w + t.i0], tex.srgb, srgb_table);
+  const Color c11 = texel_color(img[t.j1 * w + t.i1], tex.srgb, srgb_table);
   return (c00 * (1.f - fx) + c10 * fx) * (1.f - fy) + (c01 * (1.f - fx) + c11 * fx) * fy;
+}
+
+// Asks the CPU's caches for the texels texture_lookup will read at uv (the
+// two rows of the bilinear taps; for the nearest filter, one of them): a
+// hint with no effect on any result (the taps are always inside the
+// texture). Nothing on the GPU. Forced inline, as SceneView::prefetch_texture.
+LUZ_FORCE_INLINE void texture_prefetch(const TextureDesc& tex, const uint32_t* texels, Vec2 uv) {
+#if !defined(__CUDA_ARCH__)
+  const BilinearTaps t = bilinear_taps(tex, uv);
+  const uint32_t* img = texels + tex.offset;
+  __builtin_prefetch(img + t.j0 * tex.width + t.i0);
+  __builtin_prefetch(img + t.j1 * tex.width + t.i0);
+#else
+  (void)tex, (void)texels, (void)uv;
+#endif
 }
 
 }  // namespace luz
