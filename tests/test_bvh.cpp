@@ -41,6 +41,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -590,6 +591,38 @@ TEST(Bvh, EmptyAndTinyScenes) {
   EXPECT_FLOAT_EQ(h.v, 0.5f);   // barycentric of vertex 2
   r.d = {0, 0, -1};
   EXPECT_FALSE(t2.intersect(r, h));  // behind the origin
+}
+
+// Embree asserts (and aborts the process) on a ray with a non-finite origin
+// or direction component, or one beyond 1.844e18 in magnitude; the
+// EmbreeTracer reports such a ray as a miss and as occluded instead (a
+// fuzzed camera at 1.9e18 crashed the renderer). Valid rays still hit.
+TEST(Bvh, EmbreeTracerRefusesRaysEmbreeCannotTake) {
+  Scene tri;
+  tri.add_mesh({{-1, -1, 2}, {1, -1, 2}, {0, 1, 2}}, {}, {0, 1, 2}, 0, nullptr);
+  tri.compile();
+  EmbreeScene es(tri);
+  const EmbreeTracer t = es.tracer();
+  Ray ok;
+  ok.o = {0, 0, 0};
+  ok.d = {0, 0, 1};
+  Hit h;
+  ASSERT_TRUE(t.intersect(ok, h));
+  EXPECT_FLOAT_EQ(h.t, 2.f);
+  EXPECT_TRUE(t.occluded(ok));
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  for (int c = 0; c < 6; ++c)
+    for (float bad : {nan, inf, -inf, 1.9e18f, -3e38f}) {
+      SCOPED_TRACE(std::to_string(c) + " " + std::to_string(bad));
+      Ray r = ok;
+      (c < 3 ? r.o : r.d)[c % 3] = bad;
+      EXPECT_FALSE(t.intersect(r, h));
+      EXPECT_TRUE(t.occluded(r));
+    }
+  Ray r = ok;
+  r.tmax = nan;
+  EXPECT_FALSE(t.intersect(r, h));
+  EXPECT_TRUE(t.occluded(r));
 }
 
 // Rays through the vertices and edges of a grid of triangles (exactly

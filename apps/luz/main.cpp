@@ -10,6 +10,7 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <charconv>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
@@ -126,8 +127,18 @@ int main(int argc, char** argv) {
   rc->add_option("--spp", spp, "samples per pixel (overrides the scene)")->check(CLI::Range(1, 1 << 24));
   rc->add_option("--threads", threads, "worker threads (default: all cores)")->check(CLI::Range(0, 4096));
   rc->add_option("--seed", seed, "random seed")->check(CLI::Range(0LL, std::numeric_limits<long long>::max()));
-  rc->add_option("--max-depth", max_depth, "longest path, Mitsuba's max_depth (-1: unbounded)")
-      ->check(CLI::Range(-1, 1 << 20) & !CLI::IsMember({0}));
+  // One validator with its own message: `Range & !IsMember({0})` reports 0 as
+  // "check {0} succeeded improperly" and "3x" as just "3x".
+  const CLI::Validator depth_check(
+      [](std::string& s) -> std::string {
+        long long v = 0;
+        auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+        if (r.ec == std::errc() && r.ptr == s.data() + s.size() && (v == -1 || (v >= 1 && v <= (1 << 20))))
+          return std::string();
+        return "'" + s + "' is not -1 (unbounded) or a depth from 1 to 1048576";
+      },
+      "-1 or 1..1048576");
+  rc->add_option("--max-depth", max_depth, "longest path, Mitsuba's max_depth (-1: unbounded)")->check(depth_check);
   rc->add_option("--sampler", sampler, "sample generator")->check(CLI::IsMember({"independent", "stratified", "sobol"}));
   rc->add_option("--integrator", integrator, "estimator")->check(CLI::IsMember({"path", "bsdf", "light"}));
   rc->add_option("--device", device, "where to render: cpu (default), cuda (an NVIDIA GPU), auto (cuda if usable)")

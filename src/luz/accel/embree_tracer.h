@@ -3,6 +3,8 @@
 // geometry running Luz's own intersect_sphere().
 #pragma once
 
+#include <cmath>
+
 #include <embree3/rtcore.h>
 
 #include <vector>
@@ -68,7 +70,20 @@ struct EmbreeTracer {
     hit.v = w[h][q.slot[h][1]];
   }
 
+  // Embree's contract (RayK::valid): every origin and direction component
+  // finite and at most FLT_LARGE (1.844e18) in magnitude, tmax not NaN. Its
+  // debug assertions abort on anything else, so such a ray (a NaN from
+  // degenerate input, or a point beyond the range) is reported as a miss.
+  static bool embree_valid(const Ray& ray) {
+    constexpr float kLarge = 1.844e18f;
+    const float c[6] = {ray.o.x, ray.o.y, ray.o.z, ray.d.x, ray.d.y, ray.d.z};
+    bool ok = !(ray.tmax != ray.tmax);
+    for (float x : c) ok = ok && std::fabs(x) <= kLarge;  // false for NaN too
+    return ok;
+  }
+
   bool intersect(const Ray& ray, Hit& hit) const {
+    if (!embree_valid(ray)) return false;
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRayHit rh;
@@ -100,6 +115,7 @@ struct EmbreeTracer {
   }
 
   bool occluded(const Ray& ray) const {
+    if (!embree_valid(ray)) return true;  // no light along a ray that cannot be traced
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRay r;

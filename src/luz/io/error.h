@@ -23,10 +23,18 @@ class InputError : public std::runtime_error {
   int line() const { return line_; }                 // 0 when unknown or not applicable
   const std::string& problem() const { return problem_; }
 
-  // Control characters (newlines above all) become spaces; trailing ones go.
-  static std::string one_line(std::string s) {
-    for (char& c : s)
-      if (c == '\n' || c == '\r' || c == '\t' || c == '\v' || c == '\f') c = ' ';
+  // Line breaks and tabs become spaces (trailing ones go); any other control
+  // character is shown as \xNN, so that a byte the terminal would not show
+  // (or would act on) is visible in the message.
+  static std::string one_line(const std::string& in) {
+    static const char* kHex = "0123456789abcdef";
+    std::string s;
+    for (char c : in) {
+      unsigned char u = (unsigned char)c;
+      if (c == '\n' || c == '\r' || c == '\t' || c == '\v' || c == '\f') s += ' ';
+      else if (u < 0x20 || u == 0x7f) s += std::string("\\x") + kHex[u >> 4] + kHex[u & 15];
+      else s += c;
+    }
     while (!s.empty() && s.back() == ' ') s.pop_back();
     return s;
   }

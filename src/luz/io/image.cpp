@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -58,16 +59,30 @@ void write_pfm_file(const std::string& path, const Image& img) {
   for (int y = img.height - 1; y >= 0 && ok; --y)  // PFM rows run bottom to top
     ok = std::fwrite(img.rgb.data() + size_t(y) * img.width * 3, sizeof(float), size_t(img.width) * 3, f) ==
          size_t(img.width) * 3;
-  ok = (std::fclose(f) == 0) && ok;
-  if (!ok) throw InputError(path, 0, "write failed");
+  int err = ok ? 0 : errno;
+  if (std::fclose(f) != 0 && ok) ok = false, err = errno;
+  if (!ok) throw InputError(path, 0, std::string("write failed: ") + std::strerror(err));
 }
 
 void write_png_file(const std::string& path, const Image& img) {
   std::vector<unsigned char> px(img.rgb.size());
   for (size_t i = 0; i < px.size(); ++i)
     px[i] = (unsigned char)std::lround(255.f * linear_to_srgb(std::clamp(img.rgb[i], 0.f, 1.f)));
-  if (!stbi_write_png(path.c_str(), img.width, img.height, 3, px.data(), img.width * 3))
-    throw InputError(path, 0, "PNG write failed");
+  // stbi_write_png ignores fwrite's and fclose's errors (a full disk leaves a
+  // truncated file and reports success): encode to memory, write and check here.
+  std::vector<unsigned char> png;
+  auto append = [](void* ctx, void* data, int size) {
+    auto* out = static_cast<std::vector<unsigned char>*>(ctx);
+    out->insert(out->end(), static_cast<unsigned char*>(data), static_cast<unsigned char*>(data) + size);
+  };
+  if (!stbi_write_png_to_func(append, &png, img.width, img.height, 3, px.data(), img.width * 3))
+    throw InputError(path, 0, "PNG encoding failed");
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (!f) throw InputError(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
+  bool ok = std::fwrite(png.data(), 1, png.size(), f) == png.size();
+  int err = ok ? 0 : errno;
+  if (std::fclose(f) != 0 && ok) ok = false, err = errno;
+  if (!ok) throw InputError(path, 0, std::string("write failed: ") + std::strerror(err));
 }
 
 }  // namespace
@@ -87,8 +102,10 @@ void write_image(const std::string& path, const Image& img) {
     throw InputError(path, 0, "unknown image format '" + e + "' (use .exr, .pfm or .png)");
   if (img.width <= 0 || img.height <= 0 || img.rgb.size() != size_t(img.width) * size_t(img.height) * 3)
     throw InputError(path, 0, "image has no pixels or the wrong number of them");
-  // Same directory, so the final rename is atomic.
-  std::string tmp = path + ".part-" + std::to_string(::getpid()) + e;
+  // Same directory, so the final rename is atomic; a short name of its own, so
+  // that any name the directory accepts for the output also fits the temporary.
+  std::string tmp =
+      (std::filesystem::path(path).parent_path() / (".luz-" + std::to_string(::getpid()) + ".part" + e)).string();
   try {
     if (e == ".exr")
       write_exr_file(tmp, img);
@@ -96,9 +113,9 @@ void write_image(const std::string& path, const Image& img) {
       write_pfm_file(tmp, img);
     else
       write_png_file(tmp, img);
-  } catch (const InputError&) {
+  } catch (const InputError& ex) {  // about the temporary: report the output the user named
     std::remove(tmp.c_str());
-    throw;
+    throw InputError(path, 0, "cannot write: " + ex.problem());
   } catch (const std::exception& ex) {  // OpenEXR (Iex) and std:: exceptions alike
     std::remove(tmp.c_str());
     throw InputError(path, 0, std::string("cannot write: ") + ex.what());

@@ -37,6 +37,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Embree's limit on a ray's origin and direction components (FLT_LARGE, 1.844e18).
+constexpr float kMaxCoordinate = 1e18f;
+float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
+
 // The whole file, or an InputError that says why not (no std::filesystem or
 // stream exception escapes).
 std::string read_text_file(const std::string& path) {
@@ -71,7 +75,7 @@ class MitsubaParser {
       legacy_names_ = major < 2;
     }
     for (pugi::xml_node n = doc_.first_child(); n; n = n.next_sibling())
-      if (n.type() == pugi::node_element && std::string(n.name()) != "scene")
+      if (n.type() == pugi::node_element && (std::string(n.name()) != "scene" || n != root))
         error(n, "unexpected top-level element <" + std::string(n.name()) + ">");
 
     // Parameters: <default> values, overridden by the command line's -D.
@@ -369,6 +373,10 @@ class MitsubaParser {
         Vec3 up = op.attribute("up") ? vec3_attr(op, "up") : Vec3{0, 1, 0};
         Vec3 dir = tg - o;
         if (length(dir) == 0.f) error(op, "<lookat> origin and target coincide");
+        // A zero (or, in 32-bit floats, vanishing) up, or a direction that
+        // overflows, would make the camera's axes NaN.
+        if (!(length(up) > 0.f) || !is_finite(up)) error(op, "<lookat> up must be a non-zero vector");
+        if (!is_finite(dir) || !std::isfinite(length(dir))) error(op, "<lookat> origin and target are too far apart");
         if (length(cross(normalize(up), normalize(dir))) < 1e-6f) error(op, "<lookat> up is parallel to the view direction");
         step = Matrix4::look_at(o, tg, up);
       } else {
@@ -444,6 +452,12 @@ class MitsubaParser {
     cam.y_axis = normalize(to_world.vector({0, 1, 0}));
     cam.z_axis = normalize(to_world.vector({0, 0, 1}));
     cam.origin = to_world.point({0, 0, 0});
+    // Embree refuses (asserts on) rays whose origin or direction is not finite
+    // or exceeds 1.8e18 in magnitude.
+    if (!is_finite(cam.x_axis) || !is_finite(cam.y_axis) || !is_finite(cam.z_axis))
+      error(n, "the sensor's to_world gives the camera a degenerate orientation");
+    if (!is_finite(cam.origin) || max_abs(cam.origin) > kMaxCoordinate)
+      error(n, "the camera lies too far from the origin (a coordinate beyond 1e18)");
   }
 
   void parse_sampler(pugi::xml_node n) {
@@ -584,6 +598,14 @@ class MitsubaParser {
   }
 
   Bsdf parse_bsdf_element(pugi::xml_node n) {
+    // Nested bsdfs (bumpmap, twosided, blendbsdf) recurse: bound the depth so
+    // that a deep nesting is an error rather than a stack overflow.
+    struct Depth {
+      int& d;
+      explicit Depth(int& depth) : d(++depth) {}
+      ~Depth() { --d; }
+    } depth(bsdf_depth_);
+    if (bsdf_depth_ > kMaxBsdfNesting) error(n, "bsdfs nested more than " + std::to_string(kMaxBsdfNesting) + " deep");
     std::string type = attr(n, "type");
     if (type == "bumpmap") {
       // Not implemented: the nested bsdf is used as it is, and the scene's
@@ -992,6 +1014,8 @@ class MitsubaParser {
   std::map<std::string, uint32_t> bsdfs_;
   Scene scene_;
   bool legacy_names_ = false;  // a Mitsuba 0.5/0.6 scene: camelCase parameter names
+  int bsdf_depth_ = 0;
+  static constexpr int kMaxBsdfNesting = 32;
 };
 
 std::string lower_extension(const std::string& path) {
@@ -1047,6 +1071,8 @@ Scene load_obj_scene(const std::string& path) {
   cam.width = cam.height = 512;
   cam.tan_half_x = cam.tan_half_y = t;
   cam.origin = {c.x, c.y, scene.bounds_max.z + half / t * 1.05f};
+  if (!is_finite(cam.origin) || max_abs(cam.origin) > kMaxCoordinate)
+    throw InputError(path, 0, "the model is too large to frame (the camera would lie beyond 1e18)");
   cam.x_axis = {-1, 0, 0};
   cam.y_axis = {0, 1, 0};
   cam.z_axis = {0, 0, -1};

@@ -35,6 +35,17 @@ std::vector<std::string> split(const std::string& line) {
   return out;
 }
 
+// The line starting at pos, and pos moved past its end. Lines end as
+// tinyobjloader's safeGetline ends them: "\n", "\r\n" or a lone "\r" (splitting
+// at "\n" only would hide from the checks whatever follows a lone "\r").
+std::string next_line(const std::string& text, size_t& pos) {
+  size_t eol = text.find_first_of("\r\n", pos);
+  if (eol == std::string::npos) eol = text.size();
+  std::string line = text.substr(pos, eol - pos);
+  pos = eol + (eol + 1 < text.size() && text[eol] == '\r' && text[eol + 1] == '\n' ? 2 : 1);
+  return line;
+}
+
 // A finite number, or an error naming the file, the line and the value.
 void check_number(const std::string& path_, const std::string& t, int line_no, const std::string& key) {
   const char* b = t.data();
@@ -70,10 +81,7 @@ class ObjChecker {
       size_t v = 0, vt = 0, vn = 0;
       int line_no = 0;
       for (size_t pos = 0; pos < text_.size();) {
-        size_t eol = text_.find('\n', pos);
-        if (eol == std::string::npos) eol = text_.size();
-        std::string line = text_.substr(pos, eol - pos);
-        pos = eol + 1;
+        std::string line = next_line(text_, pos);
         ++line_no;
         size_t hash = line.find('#');
         if (hash != std::string::npos) line.resize(hash);
@@ -142,17 +150,28 @@ class ObjChecker {
 // The MTL files an OBJ names, checked the same way: tinyobjloader reads an
 // unparsable or non-finite colour or exponent as 0 without a word.
 void check_mtl_files(const std::string& obj_path, const std::string& obj_text) {
-  std::istringstream lines(obj_text);
-  std::string line;
-  while (std::getline(lines, line)) {
+  int obj_line = 0;
+  for (size_t pos = 0; pos < obj_text.size();) {
+    std::string line = next_line(obj_text, pos);
+    ++obj_line;
     std::vector<std::string> tok = split(line.substr(0, line.find('#')));
     if (tok.size() < 2 || tok[0] != "mtllib") continue;
     for (size_t k = 1; k < tok.size(); ++k) {
       std::filesystem::path mtl = std::filesystem::path(obj_path).parent_path() / tok[k];
-      std::ifstream in(mtl);
-      if (!in) continue;  // tinyobjloader's own warning path: materials fall back to the default
-      std::string ml;
-      for (int n = 1; std::getline(in, ml); ++n) {
+      std::error_code ec;
+      if (!std::filesystem::exists(mtl, ec)) continue;  // tinyobjloader's own warning path: the default material
+      // A FIFO or a device (/dev/zero) would block or never end, here and in tinyobjloader.
+      if (!std::filesystem::is_regular_file(mtl, ec))
+        throw InputError(obj_path, obj_line, "mtllib '" + tok[k] + "' is not a regular file");
+      std::ifstream in(mtl, std::ios::binary);
+      if (!in) continue;
+      std::stringstream ss;
+      ss << in.rdbuf();
+      const std::string mtl_text = ss.str();
+      int n = 0;
+      for (size_t mpos = 0; mpos < mtl_text.size();) {
+        std::string ml = next_line(mtl_text, mpos);
+        ++n;
         std::vector<std::string> t = split(ml.substr(0, ml.find('#')));
         if (t.empty()) continue;
         static const char* kNumeric[] = {"Kd", "Ks", "Ke", "Ka", "Tf", "Ns", "Ni", "d", "Tr"};
@@ -161,6 +180,17 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text) {
         if (!numeric) continue;
         if (t.size() < 2) throw InputError(mtl.string(), n, "'" + t[0] + "' needs a value");
         for (size_t j = 1; j < t.size(); ++j) check_number(mtl.string(), t[j], n, t[0]);
+        // tinyobjloader reads a missing g and b as 0 ("Kd 0.5" is red), so colours need all three.
+        const bool colour = t[0] == "Kd" || t[0] == "Ks" || t[0] == "Ke" || t[0] == "Ka" || t[0] == "Tf";
+        if (colour && t.size() != 4) throw InputError(mtl.string(), n, "'" + t[0] + "' needs 3 numbers (r g b)");
+        // Ranges Luz needs, reported at their line (load_obj_scene checks Kd + Ks per material).
+        for (size_t j = 1; j < t.size(); ++j) {
+          double v = std::strtod(t[j].c_str(), nullptr);
+          if ((t[0] == "Kd" || t[0] == "Ks") && !(v >= 0 && v <= 1))
+            throw InputError(mtl.string(), n, "'" + t[0] + "': '" + t[j] + "' must lie in [0, 1]");
+          if ((t[0] == "Ke" || t[0] == "Ns") && !(v >= 0))
+            throw InputError(mtl.string(), n, "'" + t[0] + "': '" + t[j] + "' must not be negative");
+        }
       }
     }
   }
