@@ -428,6 +428,17 @@ TEST_F(Cli, DeeplyNestedBsdfs) {
   EXPECT_EQ(r.status, 0) << r.err;
 }
 
+// sample_count is bounded as --spp is (2^24; it went up to 2^31).
+TEST_F(Cli, SampleCountBounds) {
+  for (const char* bad : {"0", "-4", "16777217", "5000000000"}) {
+    SCOPED_TRACE(bad);
+    expect_bad_scene(replace(kScene, "<integer name=\"sample_count\" value=\"2\"/>",
+                             std::string("<integer name=\"sample_count\" value=\"") + bad + "\"/>"),
+                     "", "");
+    EXPECT_NE(last_message.find("sample_count"), std::string::npos) << last_message;
+  }
+}
+
 TEST_F(Cli, SecondSceneRoot) {
   const std::string text = std::string(kScene) + "<scene version=\"3.0.0\"><shape type=\"ply\"/></scene>\n";
   expect_bad_scene(text, "<scene version=\"3.0.0\"><shape", "unexpected top-level element <scene>");

@@ -470,7 +470,9 @@ class MitsubaParser {
     check_children(n, {});
     Props p(this, n);
     long spp = p.get_int("sample_count", 4);
-    if (spp < 1) error(n, "sample_count must be ≥ 1");
+    // The command line's --spp bound (2^24), so that a scene cannot ask for
+    // what the flag may not.
+    if (spp < 1 || spp > (1 << 24)) error(n, "sample_count must be between 1 and 16777216 (2^24)");
     s.spp = uint32_t(spp);
     long seed = p.get_int("seed", 0);
     s.seed = uint64_t(seed);
