@@ -494,6 +494,26 @@ TEST_F(Cli, MaxDepthMessagesSayWhatIsAllowed) {
   }
 }
 
+// Flags take whole decimal integers in range, and say which (an overflowing
+// seed was accepted as another, "0x10" samples as 16).
+TEST_F(Cli, IntegerFlagsSayWhatIsAllowed) {
+  write_file(dir / "scene.xml", kScene);
+  const struct {
+    const char *flag, *value, *allowed;
+  } cases[] = {{"--seed", "99999999999999999999", "a seed from 0 to 9223372036854775807"},
+               {"--seed", "-1", "a seed from 0"},
+               {"--spp", "0x10", "a sample count from 1 to 16777216"},
+               {"--spp", "16777217", "a sample count"},
+               {"--threads", "4097", "a thread count from 0 (all cores) to 4096"},
+               {"--threads", "2.5", "a thread count"}};
+  for (const auto& c : cases) {
+    SCOPED_TRACE(std::string(c.flag) + " " + c.value);
+    expect_bad({"render", "scene.xml", c.flag, c.value}, "", 0, c.flag);
+    EXPECT_NE(last_message.find(std::string("'") + c.value + "' is not " + c.allowed), std::string::npos)
+        << last_message;
+  }
+}
+
 // A control byte in the input shows as \xNN in the message (it was printed
 // raw: invisible, or acted on by the terminal).
 TEST_F(Cli, ControlBytesInMessagesAreEscaped) {

@@ -124,21 +124,29 @@ int main(int argc, char** argv) {
   rc->add_option("scene", scene, "scene file (.xml or .obj)")->required();
   rc->add_option("-o,--output", outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
       ->allow_extra_args(false);
-  rc->add_option("--spp", spp, "samples per pixel (overrides the scene)")->check(CLI::Range(1, 1 << 24));
-  rc->add_option("--threads", threads, "worker threads (default: all cores)")->check(CLI::Range(0, 4096));
-  rc->add_option("--seed", seed, "random seed")->check(CLI::Range(0LL, std::numeric_limits<long long>::max()));
-  // One validator with its own message: `Range & !IsMember({0})` reports 0 as
-  // "check {0} succeeded improperly" and "3x" as just "3x".
-  const CLI::Validator depth_check(
-      [](std::string& s) -> std::string {
-        long long v = 0;
-        auto r = std::from_chars(s.data(), s.data() + s.size(), v);
-        if (r.ec == std::errc() && r.ptr == s.data() + s.size() && (v == -1 || (v >= 1 && v <= (1 << 20))))
-          return std::string();
-        return "'" + s + "' is not -1 (unbounded) or a depth from 1 to 1048576";
-      },
-      "-1 or 1..1048576");
-  rc->add_option("--max-depth", max_depth, "longest path, Mitsuba's max_depth (-1: unbounded)")->check(depth_check);
+  // Whole decimal integers in a range, each flag with its own message (CLI11's
+  // Range let "99999999999999999999" through as some other seed, "0x10" as 16,
+  // and `Range & !IsMember({0})` said "check {0} succeeded improperly").
+  auto integer_in = [](long long lo, long long hi, std::string what, bool minus_one = false) {
+    return CLI::Validator(
+        [=](std::string& s) -> std::string {
+          long long v = 0;
+          auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+          if (r.ec == std::errc() && r.ptr == s.data() + s.size() && ((v >= lo && v <= hi) || (minus_one && v == -1)))
+            return std::string();
+          return "'" + s + "' is not " + what;
+        },
+        minus_one ? "-1 or " + std::to_string(lo) + ".." + std::to_string(hi)
+                  : std::to_string(lo) + ".." + std::to_string(hi));
+  };
+  rc->add_option("--spp", spp, "samples per pixel (overrides the scene)")
+      ->check(integer_in(1, 1 << 24, "a sample count from 1 to 16777216"));
+  rc->add_option("--threads", threads, "worker threads (default: all cores)")
+      ->check(integer_in(0, 4096, "a thread count from 0 (all cores) to 4096"));
+  rc->add_option("--seed", seed, "random seed")
+      ->check(integer_in(0, std::numeric_limits<long long>::max(), "a seed from 0 to 9223372036854775807"));
+  rc->add_option("--max-depth", max_depth, "longest path, Mitsuba's max_depth (-1: unbounded)")
+      ->check(integer_in(1, 1 << 20, "-1 (unbounded) or a depth from 1 to 1048576", true));
   rc->add_option("--sampler", sampler, "sample generator")->check(CLI::IsMember({"independent", "stratified", "sobol"}));
   rc->add_option("--integrator", integrator, "estimator")->check(CLI::IsMember({"path", "bsdf", "light"}));
   rc->add_option("--device", device, "where to render: cpu (default), cuda (an NVIDIA GPU), auto (cuda if usable)")
