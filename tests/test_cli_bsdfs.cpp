@@ -109,7 +109,7 @@ TEST_F(CliBsdfs, BadParameters) {
   expect_bad("<bsdf type=\"roughplastic\">\n      <float name=\"alpha\" value=\"-0.05\"/>\n    </bsdf>",
              "<bsdf type=\"roughplastic\"", "must be positive");
   expect_bad("<bsdf type=\"roughplastic\">\n      <float name=\"int_ior\" value=\"0\"/>\n    </bsdf>",
-             "<bsdf type=\"roughplastic\"", "'int_ior' must be positive");
+             "<bsdf type=\"roughplastic\"", "'int_ior' must lie in [0.1, 10]");
   expect_bad("<bsdf type=\"roughplastic\">\n      <float name=\"alpha_u\" value=\"0.1\"/>\n"
              "      <float name=\"alpha_v\" value=\"0.3\"/>\n    </bsdf>",
              "<bsdf type=\"roughplastic\"", "isotropic roughness only");
@@ -119,7 +119,7 @@ TEST_F(CliBsdfs, BadParameters) {
   expect_bad("<bsdf type=\"roughconductor\">\n      <float name=\"alpha\" value=\"-0.2\"/>\n    </bsdf>",
              "<bsdf type=\"roughconductor\"", "must be positive");
   expect_bad("<bsdf type=\"dielectric\">\n      <float name=\"int_ior\" value=\"0\"/>\n    </bsdf>",
-             "<bsdf type=\"dielectric\"", "'int_ior' must be positive");
+             "<bsdf type=\"dielectric\"", "'int_ior' must lie in [0.1, 10]");
   expect_bad("<bsdf type=\"dielectric\">\n      <string name=\"int_ior\" value=\"unobtainium\"/>\n    </bsdf>",
              "unobtainium", "unknown index of refraction preset");
   expect_bad("<bsdf type=\"conductor\">\n      <string name=\"material\" value=\"Xx\"/>\n    </bsdf>",

@@ -558,7 +558,10 @@ class MitsubaParser {
     } else {
       v = float(number(c, text));
     }
-    if (!(v > 0.f)) error(n, std::string("'") + name + "' must be positive");
+    // Real dielectrics lie within about [1, 4]; far outside, the models'
+    // Fresnel terms overflow (plastic's internal reflectance reaches 1 at a
+    // ratio near 1000: every sample NaN).
+    if (!(v >= 0.1f && v <= 10.f)) error(n, std::string("'") + name + "' must lie in [0.1, 10] (an index of refraction)");
     return v;
   }
   // Conductor: `material` preset, or `eta` and `k` (Mitsuba 3: default
