@@ -77,8 +77,8 @@ struct EmbreeTracer {
   static bool embree_valid(const Ray& ray) {
     constexpr float kLarge = 1.844e18f;
     const float c[6] = {ray.o.x, ray.o.y, ray.o.z, ray.d.x, ray.d.y, ray.d.z};
-    bool ok = !(ray.tmax != ray.tmax);
-    for (float x : c) ok = ok && std::fabs(x) <= kLarge;  // false for NaN too
+    bool ok = !std::isnan(ray.tmax);
+    for (float x : c) ok &= std::fabs(x) <= kLarge;  // false for NaN too; no branch per component
     return ok;
   }
 

@@ -51,17 +51,28 @@ void write_exr_file(const std::string& path, const Image& img) {
   file.writePixels(img.height);
 }
 
-void write_pfm_file(const std::string& path, const Image& img) {
+// fopen for writing, or an InputError with the system's reason.
+std::FILE* open_for_writing(const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "wb");
   if (!f) throw InputError(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
+  return f;
+}
+
+// Closes f; throws if the writes before (ok == false) or the close failed.
+void close_written(std::FILE* f, bool ok, const std::string& path) {
+  int err = ok ? 0 : errno;
+  if (std::fclose(f) != 0 && ok) ok = false, err = errno;
+  if (!ok) throw InputError(path, 0, std::string("write failed: ") + std::strerror(err));
+}
+
+void write_pfm_file(const std::string& path, const Image& img) {
+  std::FILE* f = open_for_writing(path);
   std::fprintf(f, "PF\n%d %d\n-1.0\n", img.width, img.height);  // negative scale: little endian
   bool ok = true;
   for (int y = img.height - 1; y >= 0 && ok; --y)  // PFM rows run bottom to top
     ok = std::fwrite(img.rgb.data() + size_t(y) * img.width * 3, sizeof(float), size_t(img.width) * 3, f) ==
          size_t(img.width) * 3;
-  int err = ok ? 0 : errno;
-  if (std::fclose(f) != 0 && ok) ok = false, err = errno;
-  if (!ok) throw InputError(path, 0, std::string("write failed: ") + std::strerror(err));
+  close_written(f, ok, path);
 }
 
 void write_png_file(const std::string& path, const Image& img) {
@@ -77,12 +88,8 @@ void write_png_file(const std::string& path, const Image& img) {
   };
   if (!stbi_write_png_to_func(append, &png, img.width, img.height, 3, px.data(), img.width * 3))
     throw InputError(path, 0, "PNG encoding failed");
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) throw InputError(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
-  bool ok = std::fwrite(png.data(), 1, png.size(), f) == png.size();
-  int err = ok ? 0 : errno;
-  if (std::fclose(f) != 0 && ok) ok = false, err = errno;
-  if (!ok) throw InputError(path, 0, std::string("write failed: ") + std::strerror(err));
+  std::FILE* f = open_for_writing(path);
+  close_written(f, std::fwrite(png.data(), 1, png.size(), f) == png.size(), path);
 }
 
 }  // namespace

@@ -52,6 +52,11 @@ LUZ_INLINE Color texel_color(uint32_t t, bool srgb, const float* srgb_table) {
   return {float(r) * s, float(g) * s, float(b) * s};
 }
 
+// uv with the texture's scale and shift applied, wrapped into [0, 1)².
+LUZ_INLINE Vec2 texture_uv(const TextureDesc& tex, Vec2 uv) {
+  return {wrap_unit(uv.x * tex.scale.x + tex.shift.x), wrap_unit(uv.y * tex.scale.y + tex.shift.y)};
+}
+
 // The bilinear filter's four texels around uv: columns i0, i1, rows j0, j1
 // (wrapped around), and the weights fx, fy of i1 and j1.
 struct BilinearTaps {
@@ -60,10 +65,10 @@ struct BilinearTaps {
 };
 
 LUZ_INLINE BilinearTaps bilinear_taps(const TextureDesc& tex, Vec2 uv) {
-  const float u = wrap_unit(uv.x * tex.scale.x + tex.shift.x), v = wrap_unit(uv.y * tex.scale.y + tex.shift.y);
+  const Vec2 t01 = texture_uv(tex, uv);
   const uint32_t w = tex.width, h = tex.height;
   // Continuous texel coordinates: texel centres at integers. x in [-0.5, w - 0.5).
-  const float x = u * float(w) - 0.5f, y = v * float(h) - 0.5f;
+  const float x = t01.x * float(w) - 0.5f, y = t01.y * float(h) - 0.5f;
   const float x0f = floorf(x), y0f = floorf(y);
   // x0 in [-1, w - 1]: -1 wraps to the last column, x0 + 1 = w to the first.
   const int x0 = int(x0f), y0 = int(y0f);
@@ -80,8 +85,8 @@ LUZ_INLINE Color texture_lookup(const TextureDesc& tex, const uint32_t* texels, 
   const uint32_t w = tex.width, h = tex.height;
   const uint32_t* img = texels + tex.offset;
   if (tex.filter == TextureFilter::Nearest) {
-    const float u = wrap_unit(uv.x * tex.scale.x + tex.shift.x), v = wrap_unit(uv.y * tex.scale.y + tex.shift.y);
-    uint32_t i = uint32_t(u * float(w)), j = uint32_t(v * float(h));
+    const Vec2 t01 = texture_uv(tex, uv);
+    uint32_t i = uint32_t(t01.x * float(w)), j = uint32_t(t01.y * float(h));
     i = i < w ? i : w - 1;  // u · w may round up to w
     j = j < h ? j : h - 1;
     return texel_color(img[j * w + i], tex.srgb, srgb_table);
