@@ -27,10 +27,9 @@ inline luz::Scene furnace_scene(const luz::Bsdf& material, luz::IntegratorType t
   Scene s;
   uint32_t m = s.add_material(material);
   s.add_sphere({0.f, 0.f, 0.f}, 1.f, m, nullptr, false);
-  Emitter env;
-  env.type = EmitterType::Constant;
+  ConstantLight env;
   env.radiance = {1.f, 1.f, 1.f};
-  s.emitters.push_back(env);
+  s.lights.push_back(env);
   s.camera.origin = {0.f, 0.f, float(kCamZ)};
   s.camera.x_axis = {1.f, 0.f, 0.f};
   s.camera.y_axis = {0.f, 1.f, 0.f};

@@ -468,10 +468,9 @@ SceneCase& sponza() {
   static SceneCase c = [] {
     SceneCase s;
     s.scene = load_obj_scene(kSponza);
-    Emitter env;
-    env.type = EmitterType::Constant;
+    ConstantLight env;
     env.radiance = {1.f, 1.f, 1.f};
-    s.scene.emitters.push_back(env);
+    s.scene.lights.push_back(env);
     s.scene.compile();
     // A viewpoint inside the atrium, looking along it.
     Camera& cam = s.scene.camera;

@@ -1,4 +1,4 @@
-// Emitter sampling (SceneView::sample_emitter / emitter_pdf): chi-square of the
+// Area-light sampling (sample_li / pdf_li of light/light.h): chi-square of the
 // sampled directions against the solid-angle density of the emitter as seen
 // from the reference point, computed here independently (own ray-triangle and
 // ray-sphere intersection, in double), and agreement of the code's pdfs with
@@ -162,20 +162,22 @@ std::unique_ptr<EmitterScene> sphere_scene(const SphereRef& sp) {
   return s;
 }
 
-// Chi-square of sample_emitter(0, ref, ·) directions against `pdf`, plus the
-// pointwise checks: at every sampled direction, ls.pdf and emitter_pdf() (fed
-// an interaction found by our own intersection) equal pdf(wi).
+// Chi-square of sample_li(light 0, ref, ·) directions against `pdf`, plus the
+// pointwise checks: at every sampled direction, ls.pdf and pdf_li() (fed the
+// light point found by our own intersection) equal pdf(wi).
 // `probability`, if not empty, gives the bins' probabilities (else they are
 // the cubature of pdf over each bin).
 template <class Ref>
 void check_emitter(const SceneView& view, const Ref& light, D3 ref, const chi2::SphereGrid& g, uint64_t seed,
                    const char* what, const std::vector<double>& probability = {}) {
   Vec3 ref_f = v3(ref);
-  ASSERT_EQ(view.num_emitters, 1u);
+  ASSERT_EQ(view.lights.num_lights, 1u);
+  const Light& lt = view.lights[0];
+  const LightSampleContext ctx{ref_f, {}, {}};
   double worst_ls = 0.0, worst_ep = 0.0;
   uint64_t checked = 0;
   auto sample = [&](uint64_t i, Vec3& w) {
-    LightSample ls = view.sample_emitter(0, ref_f, chi2::rand2(seed, i, 0));
+    LightSample ls = sample_li(lt, ctx, chi2::rand2(seed, i, 0));
     if (!(ls.pdf > 0.f)) return false;
     w = ls.wi;
     if (i % 16 == 0) {
@@ -196,7 +198,7 @@ void check_emitter(const SceneView& view, const Ref& light, D3 ref, const chi2::
           it.ng = v3(light.flip ? mul(n_out, -1.0) : n_out);
         }
         it.ns = it.ng;
-        float ep = view.emitter_pdf(0, ref_f, it, ls.wi, float(*t));
+        float ep = pdf_li(lt, ctx, ls.wi, {it.ng, float(*t)});
         worst_ep = std::max(worst_ep, std::fabs(ep - want) / want);
         // The sample's own light point and distance agree with ours.
         EXPECT_NEAR(ls.dist, *t, 1e-5 * *t + 1e-6) << what;
@@ -370,7 +372,7 @@ TEST(EmitterSampling, SphereFromInsideChi2) {
   }
 }
 
-// One-sided emitters seen from the back: no sample succeeds, emitter_pdf is 0.
+// One-sided emitters seen from the back: no sample succeeds, pdf_li is 0.
 TEST(EmitterSampling, BackFacesGiveNothing) {
   {
     D3 ref{0.3, -0.2, 0};
@@ -378,47 +380,56 @@ TEST(EmitterSampling, BackFacesGiveNothing) {
     TriangleRef back(front.p0, front.p2, front.p1);
     auto s = triangle_scene(back);
     for (uint64_t i = 0; i < 1000; ++i) {
-      LightSample ls = s->view.sample_emitter(0, v3(ref), chi2::rand2(30, i, 0));
+      const LightSampleContext ctx{v3(ref), {}, {}};
+      LightSample ls = sample_li(s->view.lights[0], ctx, chi2::rand2(30, i, 0));
       ASSERT_EQ(ls.pdf, 0.f);
       Interaction it;
       it.ng = v3(back.n);
       it.emitter = 0;
-      ASSERT_EQ(s->view.emitter_pdf(0, v3(ref), it, ls.wi, ls.dist), 0.f);
+      ASSERT_EQ(pdf_li(s->view.lights[0], ctx, ls.wi, {it.ng, ls.dist}), 0.f);
     }
   }
   {
     SphereRef outward{{0, 0, 0}, 1.0, false};
     auto s = sphere_scene(outward);
     for (uint64_t i = 0; i < 1000; ++i)
-      ASSERT_EQ(s->view.sample_emitter(0, {0.2f, 0.3f, -0.1f}, chi2::rand2(31, i, 0)).pdf, 0.f)
+      ASSERT_EQ(sample_li(s->view.lights[0], {{0.2f, 0.3f, -0.1f}, {}, {}}, chi2::rand2(31, i, 0)).pdf, 0.f)
           << "outward sphere seen from inside";
   }
   {
     SphereRef inward{{0, 0, 0}, 1.0, true};
     auto s = sphere_scene(inward);
     for (uint64_t i = 0; i < 1000; ++i)
-      ASSERT_EQ(s->view.sample_emitter(0, {0.5f, 2.f, -0.1f}, chi2::rand2(32, i, 0)).pdf, 0.f)
+      ASSERT_EQ(sample_li(s->view.lights[0], {{0.5f, 2.f, -0.1f}, {}, {}}, chi2::rand2(32, i, 0)).pdf, 0.f)
           << "flipped sphere seen from outside";
   }
 }
 
-// Emitter choice: select_emitter is the first k with u < cdf[k] (checked
+// Light choice: PowerLightSampler::select is the first k with u < cdf[k] (checked
 // against std::upper_bound, zero-power entries included: never chosen), and
-// select_emitter_reuse rescales u into [0,1) within the chosen interval.
+// sample() rescales u into [0,1) within the chosen interval (and leaves it
+// alone when there is one light).
 TEST(EmitterSampling, SelectionIsTheCdfInverse) {
   for (std::vector<float> cdf : {std::vector<float>{1.f}, {0.5f, 1.f}, {0.f, 0.25f, 0.25f, 0.7f, 1.f},
                                  {0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f, 1.f, 1.f}}) {
-    SceneView v;
-    v.emitter_cdf = cdf.data();
-    v.num_emitters = uint32_t(cdf.size());
+    std::vector<float> pmf(cdf.size());
+    for (size_t k = 0; k < cdf.size(); ++k) pmf[k] = cdf[k] - (k > 0 ? cdf[k - 1] : 0.f);
+    PowerLightSampler v{cdf.data(), pmf.data(), uint32_t(cdf.size())};
     for (int k = 0; k < 4096; ++k) {
       float u = (k + 0.5f) / 4096.f;
-      uint32_t e = v.select_emitter(u);
+      uint32_t e = v.select(u);
       EXPECT_EQ(e, uint32_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin())) << u;
       float lo = e > 0 ? cdf[e - 1] : 0.f;
       EXPECT_GT(cdf[e], lo) << "an empty interval was chosen";
       float r = u;
-      EXPECT_EQ(v.select_emitter_reuse(r), e);
+      const SampledLight sl = v.sample({}, r);
+      EXPECT_EQ(sl.light, e);
+      EXPECT_EQ(sl.pmf, pmf[e]);
+      EXPECT_EQ(v.pmf({}, e), pmf[e]);
+      if (cdf.size() == 1) {
+        EXPECT_EQ(r, u);
+        continue;
+      }
       EXPECT_GE(r, 0.f);
       EXPECT_LT(r, 1.f);
       EXPECT_NEAR(r, (u - lo) / (cdf[e] - lo), 1e-6f);
@@ -440,9 +451,9 @@ TEST(EmitterSampling, ParallelogramChi2) {
   s->scene.add_mesh({v3(q.t1.p0), v3(q.t1.p1), v3(q.t1.p2), v3(q.t2.p0)}, {}, {0, 1, 2, 3, 2, 1}, m, &e);
   s->scene.compile();
   s->view = s->scene.view();
-  ASSERT_EQ(s->scene.emitters.size(), 1u);
-  EXPECT_EQ(s->scene.emitters[0].type, EmitterType::Parallelogram);
-  EXPECT_NEAR(s->scene.emitters[0].area, q.area, 1e-5 * q.area);
+  ASSERT_EQ(s->scene.lights.size(), 1u);
+  EXPECT_EQ(s->scene.lights[0].type, LightType::Parallelogram);
+  EXPECT_NEAR(s->scene.lights[0].parallelogram.area, q.area, 1e-5 * q.area);
   chi2::SphereGrid g;
   g.quad_split = 8;
   g.total_mass = 1.0;
@@ -458,8 +469,8 @@ TEST(EmitterSampling, ParallelogramChi2) {
   uint32_t mt = t.add_material(Bsdf::make_diffuse({.5f, .5f, .5f}));
   t.add_mesh({v3(q.t1.p0), v3(q.t1.p1), v3(q.t1.p2), v3(add(q.t2.p0, mul(e1, 0.1)))}, {}, {0, 1, 2, 3, 2, 1}, mt, &e);
   t.compile();
-  EXPECT_EQ(t.emitters.size(), 2u);
-  EXPECT_EQ(t.emitters[0].type, EmitterType::Triangle);
+  EXPECT_EQ(t.lights.size(), 2u);
+  EXPECT_EQ(t.lights[0].type, LightType::Triangle);
 }
 
 // compile() after a change of geometry re-derives the merged light: undone,
@@ -471,25 +482,25 @@ TEST(EmitterSampling, ParallelogramFollowsGeometryChanges) {
   Color e{1.f, 1.f, 1.f};
   s.add_mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 1, 0}}, {}, {0, 1, 2, 3, 2, 1}, m, &e);
   s.compile();
-  ASSERT_EQ(s.emitters.size(), 1u);
-  EXPECT_FLOAT_EQ(s.emitters[0].area, 1.f);
+  ASSERT_EQ(s.lights.size(), 1u);
+  EXPECT_FLOAT_EQ(s.lights[0].parallelogram.area, 1.f);
   for (Vec3& p : s.positions) p = p * 2.f + Vec3{0, 0, 1};
   s.compile();
-  ASSERT_EQ(s.emitters.size(), 1u);
-  EXPECT_EQ(s.emitters[0].type, EmitterType::Parallelogram);
-  EXPECT_FLOAT_EQ(s.emitters[0].area, 4.f);
-  EXPECT_FLOAT_EQ(s.emitters[0].v0.z, 1.f);
+  ASSERT_EQ(s.lights.size(), 1u);
+  EXPECT_EQ(s.lights[0].type, LightType::Parallelogram);
+  EXPECT_FLOAT_EQ(s.lights[0].parallelogram.area, 4.f);
+  EXPECT_FLOAT_EQ(s.lights[0].parallelogram.corner.z, 1.f);
   // Now not a parallelogram: two triangle emitters, each naming itself.
   s.positions[3] = Vec3{3, 3, 1};
   s.compile();
-  ASSERT_EQ(s.emitters.size(), 2u);
+  ASSERT_EQ(s.lights.size(), 2u);
   EXPECT_EQ(s.tri_emitter[0], 0);
   EXPECT_EQ(s.tri_emitter[1], 1);
-  EXPECT_EQ(s.emitters[1].prim, 1u);
+  EXPECT_EQ(s.lights[1].triangle.prim, 1u);
   // A degenerate emitter triangle next to a proper one.
   Scene d;
   uint32_t md = d.add_material(Bsdf::make_diffuse({.5f, .5f, .5f}));
   d.add_mesh({{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {1, 0, 0}}, {}, {0, 1, 2, 1, 3, 2}, md, &e);
   d.compile();
-  EXPECT_EQ(d.emitters.size(), 2u);
+  EXPECT_EQ(d.lights.size(), 2u);
 }

@@ -135,7 +135,10 @@ TEST(Integrator, AgreementCheckDetectsBrighterLight) {
   Scene b = load(kCornell, 64, "light");
   b.settings.spp = 256;
   b.settings.seed = 2;
-  for (Emitter& e : b.emitters) e.radiance = e.radiance * 1.03f;
+  for (Light& l : b.lights) {
+    ASSERT_EQ(l.type, LightType::Parallelogram);
+    l.parallelogram.radiance = l.parallelogram.radiance * 1.03f;
+  }
   b.compile();
   Agreement g = compare(render(a), render(b));
   const double thr = sidak_z(kFamilyAlpha, 3.0 * 3 * 64);

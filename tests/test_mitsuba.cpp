@@ -160,7 +160,8 @@ luz::Color emitted(const luz::Scene& s, uint32_t tri, Vec3 w) {
   luz::Ray ray;
   ray.o = centroid(s, tri) + w;
   ray.d = -w;
-  return v.emitted(v.interaction(ray, hit), w);
+  const luz::Interaction it = v.interaction(ray, hit);
+  return it.emitter < 0 ? luz::Color{} : luz::eval(v.lights[uint32_t(it.emitter)], it.ng, w);
 }
 
 TEST_F(Mitsuba, RectangleEmitsOnItsNormalSide) {
@@ -168,10 +169,10 @@ TEST_F(Mitsuba, RectangleEmitsOnItsNormalSide) {
   luz::Scene s = rectangle("", emitter);
   ASSERT_EQ(s.num_triangles(), 2u);
   // Its two triangles are one parallelogram emitter (Scene::compile merges them).
-  ASSERT_EQ(s.emitters.size(), 1u);
-  EXPECT_EQ(s.emitters[0].type, luz::EmitterType::Parallelogram);
-  EXPECT_FLOAT_EQ(s.emitters[0].area, 4.f);
-  EXPECT_VEC_NEAR(s.emitters[0].normal, Vec3{0, 0, 1});
+  ASSERT_EQ(s.lights.size(), 1u);
+  EXPECT_EQ(s.lights[0].type, luz::LightType::Parallelogram);
+  EXPECT_FLOAT_EQ(s.lights[0].parallelogram.area, 4.f);
+  EXPECT_VEC_NEAR(s.lights[0].parallelogram.normal, Vec3{0, 0, 1});
   EXPECT_EQ(s.tri_emitter[0], 0);
   EXPECT_EQ(s.tri_emitter[1], 0);
   for (const Vec3& p : s.positions) {
@@ -186,8 +187,8 @@ TEST_F(Mitsuba, RectangleEmitsOnItsNormalSide) {
   }
   // Rotated 90° about x: the normal +z becomes -y.
   s = rectangle("<rotate x=\"1\" angle=\"90\"/>\n", emitter);
-  ASSERT_EQ(s.emitters.size(), 1u);
-  EXPECT_VEC_NEAR(s.emitters[0].normal, Vec3{0, -1, 0});
+  ASSERT_EQ(s.lights.size(), 1u);
+  EXPECT_VEC_NEAR(s.lights[0].parallelogram.normal, Vec3{0, -1, 0});
   for (uint32_t t = 0; t < 2; ++t) {
     EXPECT_VEC_NEAR(geometric_normal(s, t), Vec3{0, -1, 0});
     EXPECT_EQ(emitted(s, t, {0, -1, 0}).z, 3.f);
@@ -238,7 +239,7 @@ TEST_F(Mitsuba, Sphere) {
   EXPECT_VEC_NEAR(s.spheres[0].center, Vec3{3, 4, 6});
   EXPECT_NEAR(s.spheres[0].radius, 1.f, kTol);
   EXPECT_FALSE(s.spheres[0].flip_normals);
-  ASSERT_EQ(s.emitters.size(), 1u);
+  ASSERT_EQ(s.lights.size(), 1u);
   EXPECT_EQ(s.spheres[0].emitter, 0);
   // Defaults: the unit sphere at the origin.
   s = load(scene("<shape type=\"sphere\"><boolean name=\"flip_normals\" value=\"true\"/></shape>\n"));
@@ -467,7 +468,7 @@ TEST_F(Mitsuba, BitterliSceneV3LoadsUnchanged) {
   EXPECT_EQ(s.settings.integrator.max_depth, 65);
   EXPECT_EQ(s.settings.filter, luz::FilterKind::Tent);
   EXPECT_GT(s.num_triangles(), 0u);
-  EXPECT_GT(s.emitters.size(), 0u);
+  EXPECT_GT(s.lights.size(), 0u);
   // Camera: matrix "-1 0 0 0 0 1 0 1 0 0 -1 6.8 0 0 0 1", fov 19.5 on x.
   EXPECT_VEC_NEAR(s.camera.origin, Vec3{0, 1, 6.8f});
   EXPECT_VEC_NEAR(s.camera.z_axis, Vec3{0, 0, -1});
@@ -479,7 +480,7 @@ TEST_F(Mitsuba, BundledCornellBoxLoads) {
   luz::Scene s = luz::load_mitsuba(xml.string(), {{"res", "16"}});
   EXPECT_EQ(s.camera.width, 16);
   EXPECT_GT(s.num_triangles(), 0u);
-  EXPECT_GT(s.emitters.size(), 0u);
+  EXPECT_GT(s.lights.size(), 0u);
 }
 
 }  // namespace

@@ -84,9 +84,9 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
   if (device == "auto" && !use_cuda)
     std::fprintf(stderr, "luz: warning: --device auto: no usable GPU (%s); rendering on the CPU\n", no_gpu.c_str());
   luz::RenderStats stats;
-  std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu emitters, on %s\n", scene_path.c_str(),
+  std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu lights, on %s\n", scene_path.c_str(),
                scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(), scene.spheres.size(),
-               scene.emitters.size(), use_cuda ? luz::cuda_device_name().c_str() : "the CPU");
+               scene.lights.size(), use_cuda ? luz::cuda_device_name().c_str() : "the CPU");
   luz::Film film;
   if (use_cuda) {
     luz::CudaRenderOptions opt;

@@ -1,9 +1,15 @@
 // The path tracer, written once for the CPU and CUDA (seed §1.2.3, §2.5).
 //
 // At each vertex: emission (weighted by MIS against light sampling), next-event
-// estimation (one emitter chosen by power, area pdf converted to solid angle,
-// shadow ray), BSDF sampling, Russian roulette. `bsdf` and `light` are the two
-// single-strategy estimators, kept to verify the combined one.
+// estimation (a light chosen by the LightSampler, a direction by its
+// sample_li, a shadow ray), BSDF sampling, Russian roulette. Lights are
+// reached only through light/light.h and light/light_sampler.h. `bsdf` and
+// `light` are the two single-strategy estimators, kept to verify the
+// combined one.
+//
+// Delta lights (point, spot, directional): found by next-event estimation
+// only, their samples weighted 1 (no ray can find them, so no MIS density);
+// the `bsdf` estimator does not see them.
 //
 // Depth follows Mitsuba: a path of depth k has k segments after the camera
 // ray's origin, so max_depth 1 shows emitters only, 2 adds direct light.
@@ -140,17 +146,21 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     Color Le{};
     float light_pdf = 0.f;
     Interaction it;
+    const LightsView& lights = scene.lights;
+    const LightSampleContext prev_ctx{prev_p, {}, {}};
     if (!found) {
-      if (scene.environment >= 0) {
-        Le = scene.environment_radiance(ray.d);
-        light_pdf = scene.emitter_pmf[scene.environment] * uniform_sphere_pdf();
+      if (lights.environment >= 0) {
+        const Light& env = lights[uint32_t(lights.environment)];
+        Le = le(env, ray.d);
+        light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(lights.environment)) * pdf_li(env, prev_ctx, ray.d, {});
       }
     } else {
       it = scene.interaction(ray, hit);
       if (it.emitter >= 0) {
-        Le = scene.emitted(it, -ray.d);
+        const Light& light = lights[uint32_t(it.emitter)];
+        Le = eval(light, it.ng, -ray.d);
         if (!is_black(Le) && weigh && use_mis)
-          light_pdf = scene.emitter_pmf[it.emitter] * scene.emitter_pdf(uint32_t(it.emitter), prev_p, it, ray.d, hit.t);
+          light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(it.emitter)) * pdf_li(light, prev_ctx, ray.d, {it.ng, hit.t});
       }
     }
     if (!is_black(Le)) {
@@ -182,7 +192,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
 
     // This vertex's random numbers at fixed dimensions (base_dim + 0: light
     // 2D, + 1: lobe 1D, + 2: direction 2D, + 3: Russian roulette 1D).
-    const bool nee = use_nee && scene.num_emitters > 0 && (plain || !bsdf.delta_only());
+    const bool nee = use_nee && lights.sampler.n > 0 && (plain || !bsdf.delta_only());
     Vec2 u_light2 = u.light;  // its x may be replaced (sample reuse, below)
     const float u_bsdf = plain ? 0.f : sampler.draw_1d(base_dim + 1, 0);  // Lambert: no lobe choice
 
@@ -193,12 +203,10 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       // reused coordinate keeps about 2^24 · pmf distinct values: for an
       // emitter chosen with pmf < 2^-8 it would be too coarse (a bias from
       // quantised points), so that case takes a fresh value instead.
-      uint32_t e = 0;
-      if (scene.num_emitters > 1) {
-        e = scene.select_emitter_reuse(u_light2.x);
-        if (scene.emitter_pmf[e] < kMinReusePmf) u_light2.x = sampler.aux_1d(base_dim);
-      }
-      LightSample ls = scene.sample_emitter(e, it.p, u_light2);
+      const LightSampleContext ctx{it.p, it.ng, it.ns};
+      const SampledLight sl = lights.sampler.sample(ctx, u_light2.x);
+      if (sl.pmf < kMinReusePmf) u_light2.x = sampler.aux_1d(base_dim);
+      const LightSample ls = sample_li(lights[sl.light], ctx, u_light2);
       if (ls.pdf > 0.f) {
         Vec3 wi = frame.to_local(ls.wi);
         const Color f = plain ? bsdf.f_diffuse(wo, wi) : bsdf.f_general(wo, wi, TransportMode::Radiance);
@@ -212,17 +220,18 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
           shadow.d = ls.wi;
           if (ls.dist < kInfinity) {
             // The segment between the two offset ends (Wächter–Binder: no
-            // shrink needed), unnormalised: t in (0, 1), no square root or
-            // division before the query can start.
-            Vec3 target = offset_ray_origin(ls.p, dot(ls.n, ls.wi) < 0.f ? ls.n : -ls.n);
+            // shrink needed; a point light's end is the point itself),
+            // unnormalised: t in (0, 1), no square root or division before
+            // the query can start.
+            Vec3 target = ls.delta ? ls.p : offset_ray_origin(ls.p, dot(ls.n, ls.wi) < 0.f ? ls.n : -ls.n);
             shadow.d = target - shadow.o;
             shadow.tmax = 1.f;
           }
           // Joins L if the segment is unoccluded (ShadowQuery).
-          float pmf = scene.emitter_pmf[e];
-          float light_pdf = pmf * ls.pdf;
+          const float light_pdf = sl.pmf * ls.pdf;
           const float bsdf_pdf = plain ? bsdf.pdf_diffuse(wo, wi) : bsdf.pdf_general(wo, wi);
-          const float w_over_pdf = use_mis ? power_heuristic_over_a(light_pdf, bsdf_pdf) : 1.f / light_pdf;
+          const float w_over_pdf =
+              use_mis && !ls.delta ? power_heuristic_over_a(light_pdf, bsdf_pdf) : 1.f / light_pdf;
           sq.ray = shadow;
           sq.contrib = beta * f * ls.radiance * (fabsf(wi.z) * w_over_pdf);
           sq.active = true;

@@ -1,7 +1,8 @@
 // Mitsuba 3 XML scenes. Supported: <default>/$name, ref/id, integrator
 // path|bsdf|light, sensor perspective, samplers, hdrfilm (and ldrfilm) with
-// box/tent/gaussian rfilter, shapes obj/rectangle/cube/sphere, area and
-// constant emitters, bsdfs diffuse, phong, blinnphong (Luz's own), conductor,
+// box/tent/gaussian rfilter, shapes obj/rectangle/cube/sphere, emitters
+// area, constant, point, spot and directional, bsdfs diffuse,
+// phong, blinnphong (Luz's own), conductor,
 // roughconductor, dielectric, roughdielectric, thindielectric, plastic,
 // roughplastic, ward (ward, ward-duer, balanced), blendbsdf, twosided (one or
 // two nested bsdfs), bitmap textures as the reflectance of diffuse, plastic
@@ -40,6 +41,17 @@ namespace fs = std::filesystem;
 // Embree's limit on a ray's origin and direction components (FLT_LARGE, 1.844e18).
 constexpr float kMaxCoordinate = 1e18f;
 float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
+// The rows of the inverse of m's linear part, (b × c, c × a, a × b) / det for
+// its columns a, b, c (world -> local directions); false if it is degenerate.
+bool inverse_rows(const Matrix4& m, Vec3& x, Vec3& y, Vec3& z) {
+  const Vec3 a = m.vector({1, 0, 0}), b = m.vector({0, 1, 0}), c = m.vector({0, 0, 1});
+  const float det = dot(a, cross(b, c));
+  if (!(std::fabs(det) > 0.f) || !std::isfinite(det)) return false;
+  x = cross(b, c) / det;
+  y = cross(c, a) / det;
+  z = cross(a, b) / det;
+  return is_finite(x) && is_finite(y) && is_finite(z);
+}
 
 // The whole file, or an InputError that says why not (no std::filesystem or
 // stream exception escapes).
@@ -115,7 +127,7 @@ class MitsubaParser {
       } else if (tag == "bsdf") {
         parse_bsdf(n);
       } else if (tag == "shape") parse_shape(n);
-      else if (tag == "emitter") parse_environment(n);
+      else if (tag == "emitter") parse_emitter(n);
       else error(n, "unsupported element <" + tag + ">");
     }
     if (!have_sensor) throw InputError(path_, 0, "the scene has no <sensor>");
@@ -866,21 +878,75 @@ class MitsubaParser {
     return it->second;
   }
 
-  void parse_environment(pugi::xml_node n) {
+  // Top-level emitters: `constant` (an environment), and the delta lights
+  // `point`, `spot` and `directional`.
+  void parse_emitter(pugi::xml_node n) {
     std::string type = attr(n, "type");
-    if (type != "constant") error(n, "unknown top-level emitter '" + type + "' (supported: constant)");
     check_children(n, {});
     Props p(this, n);
-    Color L = p.get_color("radiance", {1, 1, 1});
-    p.check_all_used();
-    for (int k = 0; k < 3; ++k)
-      if (L[k] < 0.f) error(n, "radiance must not be negative");
-    for (const Emitter& e : scene_.emitters)
-      if (e.type == EmitterType::Constant) error(n, "only one environment emitter is supported");
-    Emitter e;
-    e.type = EmitterType::Constant;
-    e.radiance = L;
-    scene_.emitters.push_back(e);
+    auto non_negative = [&](Color c, const char* what) {
+      for (int k = 0; k < 3; ++k)
+        if (!(c[k] >= 0.f) || !std::isfinite(c[k])) error(n, std::string(what) + " must be finite and not negative");
+      return c;
+    };
+    // A light's placement: `position` (point) or `direction` (directional),
+    // or to_world; not both.
+    auto placement = [&](const char* alternative) {
+      if (p.has(alternative) && p.has("to_world"))
+        error(n, std::string("give either '") + alternative + "' or 'to_world', not both");
+      return p.get_transform("to_world");
+    };
+    auto finite_place = [&](Vec3 v, const char* what) {
+      if (!is_finite(v) || max_abs(v) > kMaxCoordinate)
+        error(n, std::string("the light's ") + what + " is not finite or lies beyond 1e18");
+      return v;
+    };
+    if (type == "constant") {
+      Color L = non_negative(p.get_color("radiance", {1, 1, 1}), "radiance");
+      p.check_all_used();
+      for (const Light& l : scene_.lights)
+        if (is_environment(l)) error(n, "only one environment emitter is supported");
+      ConstantLight c;
+      c.radiance = L;
+      scene_.lights.push_back(c);
+    } else if (type == "point") {
+      PointLight l;
+      l.intensity = non_negative(p.get_color("intensity", {1, 1, 1}), "intensity");
+      Matrix4 to_world = placement("position");
+      l.position = finite_place(p.has("position") ? p.get_point("position", {}) : to_world.point({0, 0, 0}), "position");
+      p.check_all_used();
+      scene_.lights.push_back(l);
+    } else if (type == "spot") {
+      SpotLight l;
+      l.intensity = non_negative(p.get_color("intensity", {1, 1, 1}), "intensity");
+      const double cutoff = p.get_float("cutoff_angle", 20.0);
+      const double beam = p.get_float("beam_width", cutoff * 3.0 / 4.0);
+      if (p.has("texture")) error(p.by_name.at("texture"), "a spot light's projected texture is not supported yet");
+      Matrix4 to_world = p.get_transform("to_world");
+      p.check_all_used();
+      if (!(cutoff > 0.0 && cutoff <= 90.0)) error(n, "cutoff_angle must be in (0, 90] degrees");
+      if (!(beam > 0.0 && beam <= cutoff)) error(n, "beam_width must be in (0, cutoff_angle] degrees");
+      l.position = finite_place(to_world.point({0, 0, 0}), "position");
+      if (!inverse_rows(to_world, l.inv_x, l.inv_y, l.inv_z)) error(n, "the spot light's to_world is degenerate");
+      l.cutoff = float(cutoff * M_PI / 180.0);
+      l.beam = float(beam * M_PI / 180.0);
+      l.cos_cutoff = float(std::cos(cutoff * M_PI / 180.0));
+      l.cos_beam = float(std::cos(beam * M_PI / 180.0));
+      l.inv_transition = beam < cutoff ? float(1.0 / ((cutoff - beam) * M_PI / 180.0)) : 0.f;
+      scene_.lights.push_back(l);
+    } else if (type == "directional") {
+      DirectionalLight l;
+      l.irradiance = non_negative(p.get_color("irradiance", {1, 1, 1}), "irradiance");
+      Matrix4 to_world = placement("direction");
+      Vec3 d = p.has("direction") ? p.get_point("direction", {}) : to_world.vector({0, 0, 1});
+      p.check_all_used();
+      const float len = length(d);
+      if (!(len > 0.f) || !std::isfinite(len)) error(n, "the directional light's direction is zero or not finite");
+      l.direction = d / len;
+      scene_.lights.push_back(l);
+    } else {
+      error(n, "unknown top-level emitter '" + type + "' (supported: constant, point, spot, directional)");
+    }
   }
 
   void parse_shape(pugi::xml_node n) {

@@ -38,12 +38,11 @@ void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm,
     indices.push_back(base + idx[k + 2]);
     tri_material.push_back(material);
     if (emission) {
-      Emitter e;
-      e.type = EmitterType::Triangle;
-      e.prim = uint32_t(tri_material.size() - 1);
-      e.radiance = *emission;
-      tri_emitter.push_back(int32_t(emitters.size()));
-      emitters.push_back(e);
+      TriangleLight l;
+      l.prim = uint32_t(tri_material.size() - 1);
+      l.radiance = *emission;
+      tri_emitter.push_back(int32_t(lights.size()));
+      lights.push_back(l);
     } else {
       tri_emitter.push_back(-1);
     }
@@ -57,12 +56,11 @@ void Scene::add_sphere(Vec3 center, float radius, uint32_t material, const Color
   s.material = material;
   s.flip_normals = flip;
   if (emission) {
-    Emitter e;
-    e.type = EmitterType::Sphere;
-    e.prim = uint32_t(spheres.size());
-    e.radiance = *emission;
-    s.emitter = int32_t(emitters.size());
-    emitters.push_back(e);
+    SphereLight l;
+    l.prim = uint32_t(spheres.size());
+    l.radiance = *emission;
+    s.emitter = int32_t(lights.size());
+    lights.push_back(l);
   }
   spheres.push_back(s);
 }
@@ -88,7 +86,7 @@ namespace {
 // If triangles a and b (vertex positions) share one edge and their other two
 // vertices mirror each other through its midpoint (to a few ulps), and face
 // the same way, fills q with the parallelogram they form: corner, two edges.
-bool parallelogram(const Vec3 a[3], const Vec3 b[3], Emitter& q) {
+bool parallelogram(const Vec3 a[3], const Vec3 b[3], ParallelogramLight& q) {
   auto same = [](Vec3 p, Vec3 r) { return p.x == r.x && p.y == r.y && p.z == r.z; };
   // A triangle with a repeated position is degenerate: never part of a quad
   // (and the shared-vertex count below needs distinct positions).
@@ -115,12 +113,11 @@ bool parallelogram(const Vec3 a[3], const Vec3 b[3], Emitter& q) {
   Vec3 na = cross(a[1] - a[0], a[2] - a[0]), nb = cross(b[1] - b[0], b[2] - b[0]);
   float la = length(na);
   if (!(la > 0.f) || !(dot(na, nb) > 0.f)) return false;
-  q.type = EmitterType::Parallelogram;
-  q.v0 = d1;
-  q.v1 = s1 - d1;
-  q.v2 = s2 - d1;
+  q.corner = d1;
+  q.e1 = s1 - d1;
+  q.e2 = s2 - d1;
   q.normal = na / la;  // the emitting side, as the triangles had it
-  q.area = length(cross(q.v1, q.v2));
+  q.area = length(cross(q.e1, q.e2));
   return q.area > 0.f;
 }
 
@@ -132,45 +129,44 @@ bool parallelogram(const Vec3 a[3], const Vec3 b[3], Emitter& q) {
 // merges are undone first, so a compile() after a change of geometry merges
 // what is a parallelogram now.
 void Scene::merge_parallelogram_emitters() {
-  // 1. One emitter per emissive triangle again: split[back[e]] is emitter e,
-  // or a parallelogram's first triangle (its second follows).
-  std::vector<Emitter> split;
-  split.reserve(emitters.size());
-  std::vector<size_t> back(emitters.size());
-  for (size_t e = 0; e < emitters.size(); ++e) {
-    const Emitter& em = emitters[e];
+  // 1. One light per emissive triangle again: split[back[e]] is light e, or
+  // a parallelogram's first triangle (its second follows).
+  std::vector<Light> split;
+  split.reserve(lights.size());
+  std::vector<size_t> back(lights.size());
+  for (size_t e = 0; e < lights.size(); ++e) {
+    const Light& l = lights[e];
     back[e] = split.size();
-    if (em.type != EmitterType::Parallelogram) {
-      split.push_back(em);
+    if (l.type != LightType::Parallelogram) {
+      split.push_back(l);
       continue;
     }
-    for (uint32_t t : {em.prim, em.prim2}) {
-      Emitter tri;
+    for (uint32_t t : {l.parallelogram.prim, l.parallelogram.prim2}) {
+      TriangleLight tri;
       tri.prim = t;
-      tri.radiance = em.radiance;
+      tri.radiance = l.parallelogram.radiance;
       split.push_back(tri);
     }
   }
   // 2. Merge: remap[k] is the new index of split[k].
   const SceneView v = view();
   std::vector<int32_t> remap(split.size());
-  std::vector<Emitter> merged;
+  std::vector<Light> merged;
   merged.reserve(split.size());
   for (size_t k = 0; k < split.size(); ++k) {
-    const Emitter& a = split[k];
+    const Light& a = split[k];
     remap[k] = int32_t(merged.size());
-    if (a.type == EmitterType::Triangle && k + 1 < split.size()) {
-      const Emitter& b = split[k + 1];
+    if (a.type == LightType::Triangle && k + 1 < split.size() && split[k + 1].type == LightType::Triangle) {
+      const TriangleLight &ta = a.triangle, &tb = split[k + 1].triangle;
       Vec3 pa[3], pb[3];
-      Emitter q;
-      if (b.type == EmitterType::Triangle && a.radiance.x == b.radiance.x && a.radiance.y == b.radiance.y &&
-          a.radiance.z == b.radiance.z) {
-        v.triangle(a.prim, pa[0], pa[1], pa[2]);
-        v.triangle(b.prim, pb[0], pb[1], pb[2]);
+      ParallelogramLight q;
+      if (ta.radiance.x == tb.radiance.x && ta.radiance.y == tb.radiance.y && ta.radiance.z == tb.radiance.z) {
+        v.triangle(ta.prim, pa[0], pa[1], pa[2]);
+        v.triangle(tb.prim, pb[0], pb[1], pb[2]);
         if (parallelogram(pa, pb, q)) {
-          q.prim = a.prim;
-          q.prim2 = b.prim;
-          q.radiance = a.radiance;
+          q.prim = ta.prim;
+          q.prim2 = tb.prim;
+          q.radiance = ta.radiance;
           remap[++k] = int32_t(merged.size());
           merged.push_back(q);
           continue;
@@ -179,16 +175,16 @@ void Scene::merge_parallelogram_emitters() {
     }
     merged.push_back(a);
   }
-  // 3. Triangles and spheres name their new emitters.
+  // 3. Triangles and spheres name their new lights.
   for (size_t t = 0; t < tri_emitter.size(); ++t) {
     if (tri_emitter[t] < 0) continue;
-    const Emitter& old = emitters[size_t(tri_emitter[t])];
-    const bool second = old.type == EmitterType::Parallelogram && t == old.prim2;
+    const Light& old = lights[size_t(tri_emitter[t])];
+    const bool second = old.type == LightType::Parallelogram && t == old.parallelogram.prim2;
     tri_emitter[t] = remap[back[size_t(tri_emitter[t])] + (second ? 1 : 0)];
   }
   for (Sphere& sp : spheres)
     if (sp.emitter >= 0) sp.emitter = remap[back[size_t(sp.emitter)]];
-  emitters = std::move(merged);
+  lights = std::move(merged);
 }
 
 void Scene::compile() {
@@ -218,51 +214,52 @@ void Scene::compile() {
 
   merge_parallelogram_emitters();
 
-  // Emitter selection in proportion to power: π · area · mean radiance.
+  // Each light's derived data, then selection in proportion to power.
   v = view();
   environment = -1;
-  std::vector<double> power(emitters.size());
-  for (size_t e = 0; e < emitters.size(); ++e) {
-    const Emitter& em = emitters[e];
-    double area = 0;
-    switch (em.type) {
-      case EmitterType::Triangle: {
-        Vec3 p0, p1, p2;
-        v.triangle(em.prim, p0, p1, p2);
-        Vec3 c = cross(p1 - p0, p2 - p0);
+  std::vector<double> power(lights.size());
+  for (size_t e = 0; e < lights.size(); ++e) {
+    Light& l = lights[e];
+    switch (l.type) {
+      case LightType::Triangle: {
+        TriangleLight& t = l.triangle;
+        v.triangle(t.prim, t.v0, t.v1, t.v2);
+        Vec3 c = cross(t.v1 - t.v0, t.v2 - t.v0);
         float len = length(c);
-        emitters[e].area = 0.5f * len;
-        emitters[e].normal = len > 0.f ? c / len : Vec3{0, 0, 1};
-        emitters[e].v0 = p0;
-        emitters[e].v1 = p1;
-        emitters[e].v2 = p2;
-        area = emitters[e].area;
+        t.area = 0.5f * len;
+        t.normal = len > 0.f ? c / len : Vec3{0, 0, 1};
         break;
       }
-      case EmitterType::Parallelogram: area = em.area; break;  // set by merge_parallelogram_emitters
-      case EmitterType::Sphere: area = 4.0 * M_PI * double(spheres[em.prim].radius) * spheres[em.prim].radius; break;
-      case EmitterType::Constant:
-        area = M_PI * double(radius) * radius;  // flux through the scene's bounding disk
-        environment = int32_t(e);
+      case LightType::Parallelogram: break;  // set by merge_parallelogram_emitters
+      case LightType::Sphere: {
+        const Sphere& sp = spheres[l.sphere.prim];
+        l.sphere.center = sp.center;
+        l.sphere.radius = sp.radius;
+        l.sphere.flip = sp.flip_normals;
         break;
+      }
+      case LightType::Constant: environment = int32_t(e); break;
+      case LightType::Point:
+      case LightType::Spot:
+      case LightType::Directional: break;  // nothing derived
     }
-    power[e] = M_PI * area * std::max(0.0, double(average(em.radiance)));
+    power[e] = phi(l, radius);
   }
   double total = 0;
   for (double p : power) total += p;
   // With no emitting power at all, the CDF stays empty: no light sampling.
-  emitter_cdf.clear();
-  emitter_pmf.assign(emitters.size(), 0.f);
+  light_cdf.clear();
+  light_pmf.assign(lights.size(), 0.f);
   if (total > 0) {
-    emitter_cdf.assign(emitters.size(), 1.f);
+    light_cdf.assign(lights.size(), 1.f);
     double acc = 0;
-    for (size_t e = 0; e < emitters.size(); ++e) {
+    for (size_t e = 0; e < lights.size(); ++e) {
       acc += power[e];
-      emitter_cdf[e] = float(acc / total);
-      emitter_pmf[e] = float(power[e] / total);
+      light_cdf[e] = float(acc / total);
+      light_pmf[e] = float(power[e] / total);
     }
-    if (!emitters.empty()) emitter_cdf.back() = 1.f;
-    // A zero-power emitter must never be selected: its CDF step is empty and
+    if (!lights.empty()) light_cdf.back() = 1.f;
+    // A zero-power light must never be selected: its CDF step is empty and
     // binary search skips it; that holds even for the last one.
   }
 }
@@ -285,11 +282,12 @@ SceneView Scene::view() const {
   v.texels = texels.data();
   v.srgb_table = srgb_table.data();
   v.num_textures = uint32_t(textures.size());
-  v.emitters = emitters.data();
-  v.emitter_cdf = emitter_cdf.data();
-  v.emitter_pmf = emitter_pmf.data();
-  v.num_emitters = emitter_cdf.empty() ? 0 : uint32_t(emitters.size());
-  v.environment = environment;
+  v.lights.list = lights.data();
+  v.lights.num_lights = uint32_t(lights.size());
+  v.lights.environment = environment;
+  v.lights.sampler.cdf = light_cdf.data();
+  v.lights.sampler.pmfs = light_pmf.data();
+  v.lights.sampler.n = light_cdf.empty() ? 0 : uint32_t(lights.size());
   v.camera = camera;
   v.bounds_center = (bounds_min + bounds_max) * 0.5f;
   v.bounds_radius = std::max(0.5f * length(bounds_max - bounds_min), 1e-3f);

@@ -1,5 +1,5 @@
-// The host scene: what the loaders fill in. compile() derives the emitter
-// table and hands out a SceneView over these arrays.
+// The host scene: what the loaders fill in. compile() derives the light
+// selection table and hands out a SceneView over these arrays.
 #pragma once
 
 #include <string>
@@ -29,7 +29,7 @@ struct Scene {
   std::vector<int32_t> tri_emitter;
   std::vector<Sphere> spheres;
   std::vector<Bsdf> materials;
-  std::vector<Emitter> emitters;
+  std::vector<Light> lights;  // area lights (named by tri_emitter, Sphere::emitter), then the others
   // Bitmap textures (texture.h): descriptors, all texels back to back, and
   // the sRGB decoding table (filled by the first add_texture).
   std::vector<TextureDesc> textures;
@@ -39,7 +39,7 @@ struct Scene {
   RenderSettings settings;
 
   // Filled by compile().
-  std::vector<float> emitter_cdf, emitter_pmf;
+  std::vector<float> light_cdf, light_pmf;
   std::vector<Vec3> tri_normals;  // unit geometric normal per triangle (the CPU's SceneView)
   int32_t environment = -1;
   Vec3 bounds_min{}, bounds_max{};

@@ -315,9 +315,9 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.textures = up.upload(scene.textures, "texture descriptors");
   dev.texels = up.upload(scene.texels, "texels");
   dev.srgb_table = up.upload(scene.srgb_table, "the sRGB decoding table");
-  dev.emitters = up.upload(scene.emitters, "emitters");
-  dev.emitter_cdf = up.upload(scene.emitter_cdf, "the emitter CDF");
-  dev.emitter_pmf = up.upload(scene.emitter_pmf, "the emitter PMF");
+  dev.lights.list = up.upload(scene.lights, "lights");
+  dev.lights.sampler.cdf = up.upload(scene.light_cdf, "the light CDF");
+  dev.lights.sampler.pmfs = up.upload(scene.light_pmf, "the light PMF");
   const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres);
 
   const uint32_t per_pass = options.samples_per_pass

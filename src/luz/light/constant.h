@@ -1,0 +1,32 @@
+// A constant environment (Mitsuba's `constant`): the same radiance from every
+// direction, sampled uniformly over the sphere.
+#pragma once
+
+#include <algorithm>
+
+#include "luz/light/light_sample.h"
+#include "luz/sampling/warp.h"
+
+namespace luz {
+
+struct ConstantLight {
+  static constexpr bool kDelta = false, kEnvironment = true;
+  Color radiance;
+
+  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2 u) const {
+    LightSample ls;
+    ls.wi = square_to_uniform_sphere(u);
+    ls.dist = kInfinity;
+    ls.pdf = uniform_sphere_pdf();
+    ls.radiance = radiance;
+    return ls;
+  }
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&) const { return uniform_sphere_pdf(); }
+  LUZ_INLINE Color le(Vec3) const { return radiance; }
+  // The flux through the scene's bounding disk.
+  double phi(float scene_radius) const {
+    return M_PI * (M_PI * double(scene_radius) * scene_radius) * std::max(0.0, double(average(radiance)));
+  }
+};
+
+}  // namespace luz

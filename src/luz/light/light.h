@@ -1,0 +1,99 @@
+// Lights: one tagged union over the models (one file each) and one dispatch,
+// `visit`, through which every question to a light goes. A model is a plain
+// struct with
+//   static constexpr bool kDelta;        // a point or a direction: found by no ray
+//   static constexpr bool kEnvironment;  // found by the rays that leave the scene
+//   LightSample sample_li(const LightSampleContext&, Vec2 u) const;
+//   float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit&) const;
+//   Color eval(Vec3 n, Vec3 w) const;   // others: radiance from a surface point of normal n toward w
+//   Color le(Vec3 dir) const;           // environments: radiance arriving along -dir, from dir
+//   double phi(float scene_radius) const;  // power (host), for light selection
+// pdf_li is the solid-angle density with which sample_li finds the light
+// along wi (0 for delta lights: no ray finds them).
+#pragma once
+
+#include <type_traits>
+
+#include "luz/light/area.h"
+#include "luz/light/constant.h"
+#include "luz/light/directional.h"
+#include "luz/light/point.h"
+#include "luz/light/spot.h"
+
+namespace luz {
+
+enum class LightType : uint32_t { Triangle, Parallelogram, Sphere, Constant, Point, Spot, Directional };
+
+struct Light {
+  LightType type = LightType::Triangle;
+  union {
+    TriangleLight triangle;
+    ParallelogramLight parallelogram;
+    SphereLight sphere;
+    ConstantLight constant;
+    PointLight point;
+    SpotLight spot;
+    DirectionalLight directional;
+  };
+
+  LUZ_INLINE Light() : triangle() {}
+  LUZ_INLINE Light(const TriangleLight& m) : type(LightType::Triangle), triangle(m) {}
+  LUZ_INLINE Light(const ParallelogramLight& m) : type(LightType::Parallelogram), parallelogram(m) {}
+  LUZ_INLINE Light(const SphereLight& m) : type(LightType::Sphere), sphere(m) {}
+  LUZ_INLINE Light(const ConstantLight& m) : type(LightType::Constant), constant(m) {}
+  LUZ_INLINE Light(const PointLight& m) : type(LightType::Point), point(m) {}
+  LUZ_INLINE Light(const SpotLight& m) : type(LightType::Spot), spot(m) {}
+  LUZ_INLINE Light(const DirectionalLight& m) : type(LightType::Directional), directional(m) {}
+};
+static_assert(std::is_trivially_copyable_v<Light>, "lights are copied to the GPU as bytes");
+
+// Calls f with the light's model.
+template <class F>
+LUZ_FORCE_INLINE decltype(auto) visit(const Light& l, F&& f) {
+  switch (l.type) {
+    case LightType::Triangle: return f(l.triangle);
+    case LightType::Parallelogram: return f(l.parallelogram);
+    case LightType::Sphere: return f(l.sphere);
+    case LightType::Constant: return f(l.constant);
+    case LightType::Point: return f(l.point);
+    case LightType::Spot: return f(l.spot);
+    default: return f(l.directional);
+  }
+}
+
+LUZ_FORCE_INLINE LightSample sample_li(const Light& l, const LightSampleContext& ctx, Vec2 u) {
+  return visit(l, [&](const auto& m) { return m.sample_li(ctx, u); });
+}
+
+LUZ_INLINE float pdf_li(const Light& l, const LightSampleContext& ctx, Vec3 wi, const LightHit& h) {
+  return visit(l, [&](const auto& m) { return m.pdf_li(ctx, wi, h); });
+}
+
+// Radiance a surface light sends from a point of normal n toward w.
+LUZ_INLINE Color eval(const Light& l, Vec3 n, Vec3 w) {
+  return visit(l, [&](const auto& m) {
+    if constexpr (!std::decay_t<decltype(m)>::kEnvironment) return m.eval(n, w);
+    else return Color{};
+  });
+}
+
+// Radiance an environment sends along -dir (a ray leaving the scene along dir).
+LUZ_INLINE Color le(const Light& l, Vec3 dir) {
+  return visit(l, [&](const auto& m) {
+    if constexpr (std::decay_t<decltype(m)>::kEnvironment) return m.le(dir);
+    else return Color{};
+  });
+}
+
+LUZ_INLINE bool is_delta(const Light& l) {
+  return visit(l, [](const auto& m) { return std::decay_t<decltype(m)>::kDelta; });
+}
+LUZ_INLINE bool is_environment(const Light& l) {
+  return visit(l, [](const auto& m) { return std::decay_t<decltype(m)>::kEnvironment; });
+}
+
+inline double phi(const Light& l, float scene_radius) {
+  return visit(l, [&](const auto& m) { return m.phi(scene_radius); });
+}
+
+}  // namespace luz

@@ -1,0 +1,48 @@
+// A spot light (Mitsuba's `spot`): a point light whose intensity I is full
+// within beam_width of its axis, falls off linearly in angle to 0 at
+// cutoff_angle, and is 0 beyond (Mitsuba's falloff_curve). Light space has
+// the axis along +z; to_world places it. A delta light.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+
+#include "luz/light/point.h"
+
+namespace luz {
+
+struct SpotLight {
+  static constexpr bool kDelta = true, kEnvironment = false;
+  Color intensity;  // W/sr on the axis
+  Vec3 position;
+  // Rows of the inverse of to_world's linear part: world direction -> light space.
+  Vec3 inv_x, inv_y, inv_z;
+  float cutoff = 0.f, beam = 0.f;  // angles in radians, 0 < beam <= cutoff <= π/2
+  float cos_cutoff = 1.f, cos_beam = 1.f, inv_transition = 0.f;
+
+  // The falloff factor in [0, 1] toward the light-space direction d.
+  LUZ_INLINE float falloff(Vec3 d) const {
+    const float cos_theta = normalize(d).z;
+    if (!(cos_theta > cos_cutoff)) return 0.f;
+    if (cos_theta >= cos_beam) return 1.f;
+    return (cutoff - acosf(cos_theta)) * inv_transition;
+  }
+
+  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2) const {
+    const Vec3 w = ctx.p - position;  // from the light toward the shading point
+    const float f = falloff({dot(inv_x, w), dot(inv_y, w), dot(inv_z, w)});
+    if (!(f > 0.f)) return {};
+    return point_light_sample(position, ctx.p, intensity * f);
+  }
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&) const { return 0.f; }
+  LUZ_INLINE Color eval(Vec3, Vec3) const { return {}; }
+  // 2π I ∫ falloff(θ) sin θ dθ = 2π I (1 - (sin c - sin b) / (c - b)),
+  // 2π I (1 - cos c) when b = c.
+  double phi(float) const {
+    const double b = beam, c = cutoff;
+    const double solid = c - b > 1e-7 ? 1.0 - (std::sin(c) - std::sin(b)) / (c - b) : 1.0 - std::cos(c);
+    return 2.0 * M_PI * solid * std::max(0.0, double(average(intensity)));
+  }
+};
+
+}  // namespace luz

@@ -1,0 +1,241 @@
+// Delta lights (light/point.h, spot.h, directional.h) against closed forms.
+//
+// A diffuse plane (albedo ρ) seen from above by a pinhole camera, lit by one
+// delta light, rendered with direct light only (max_depth 2): each pixel is
+// ρ/π · E averaged over its footprint, E the irradiance of the closed form:
+//   point:        E = I cos θ / d²
+//   spot:         E = I falloff(angle from the axis) cos θ / d² (Mitsuba's
+//                 linear-in-angle falloff: 1 within beam_width, 0 beyond
+//                 cutoff_angle)
+//   directional:  E = E₀ cos θ
+// The reference is a midpoint quadrature of that over each pixel (box
+// filter), computed here in double from the camera's geometry; its error is
+// estimated by halving the grid and added to the tolerance. The render's only
+// randomness is the position within the pixel, so each pixel mean is compared
+// by a z-test whose variance is that of the reference over the pixel (the
+// quadrature gives it), Šidák-corrected over all pixels and channels, with a
+// float-rounding floor (stat_helpers.h).
+//
+// Estimators: a delta light is found by next-event estimation only, so the
+// path estimator (its light samples weighted 1: no MIS density) gives the
+// same image as the light estimator, bit for bit, and the bsdf estimator a
+// black one.
+//
+// Bad input: a cutoff_angle outside (0, 90], a beam_width above it, negative
+// intensities, a position and a to_world together: one file:line error.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <string>
+
+#include "luz/device/cpu/render.h"
+#include "luz/io/error.h"
+#include "luz/io/scene_loader.h"
+#include "stat_helpers.h"
+#include "temp_dir.h"
+
+using namespace luz;
+
+namespace {
+
+constexpr int kRes = 32;
+constexpr int kSpp = 64;
+constexpr double kHeight = 4.0, kFovDeg = 60.0, kAlbedo = 0.5;
+constexpr double kFamilyAlpha = 1e-3;
+
+struct D3 {
+  double x, y, z;
+};
+D3 operator-(D3 a, D3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+double dot(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+double norm(D3 a) { return std::sqrt(dot(a, a)); }
+D3 unit(D3 a) {
+  double l = norm(a);
+  return {a.x / l, a.y / l, a.z / l};
+}
+
+std::string scene_xml(const std::string& light, const std::string& integrator = "path") {
+  return R"(<scene version="3.0.0">
+  <integrator type=")" + integrator + R"("><integer name="max_depth" value="2"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value=")" + std::to_string(kFovDeg) + R"("/>
+    <transform name="to_world"><lookat origin="0, 0, )" + std::to_string(kHeight) + R"(" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value=")" + std::to_string(kSpp) + R"("/></sampler>
+    <film type="hdrfilm"><integer name="width" value=")" + std::to_string(kRes) + R"("/><integer name="height" value=")" +
+         std::to_string(kRes) + R"("/><rfilter type="box"/></film>
+  </sensor>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value="10"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value=")" + std::to_string(kAlbedo) + R"("/></bsdf>
+  </shape>
+)" + light + "\n</scene>\n";
+}
+
+// The plane point (z = 0) seen at film position (fx, fy): the camera at
+// height h looks down -z with +y up, so the image's left is world -x, its top
+// world +y; the film spans tan(fov/2) on both axes (square image).
+D3 plane_point(double fx, double fy) {
+  const double t = std::tan(kFovDeg * M_PI / 360.0);
+  const double sx = (2.0 * fx / kRes - 1.0) * t, sy = (1.0 - 2.0 * fy / kRes) * t;
+  return {kHeight * sx, kHeight * sy, 0.0};
+}
+
+// Per-pixel radiance reference: the mean of ρ/π · E(P) over a k×k midpoint
+// grid of the pixel, and the variance of that value over the pixel (what
+// one sample's variance is, since the render's only randomness is where in
+// the pixel the sample falls).
+struct PixelRef {
+  double mean = 0, var = 0;
+};
+PixelRef pixel_reference(const std::function<double(D3)>& irradiance, int x, int y, int k) {
+  double acc = 0, acc2 = 0;
+  for (int j = 0; j < k; ++j)
+    for (int i = 0; i < k; ++i) {
+      const double L = kAlbedo / M_PI * irradiance(plane_point(x + (i + 0.5) / k, y + (j + 0.5) / k));
+      acc += L;
+      acc2 += L * L;
+    }
+  const double n = double(k) * k, mean = acc / n;
+  return {mean, std::max(0.0, acc2 / n - mean * mean)};
+}
+
+class Lights : public TempDirTest {
+ protected:
+  Scene load(const std::string& light, const std::string& integrator = "path") {
+    return load_scene(write("scene.xml", scene_xml(light, integrator)));
+  }
+  static Film render(const Scene& s) {
+    CpuRenderOptions opt;
+    opt.threads = 2;
+    RenderStats stats;
+    Film f = render_cpu(s, opt, stats);
+    EXPECT_EQ(stats.discarded, 0u);
+    return f;
+  }
+
+  // Every pixel and channel against the quadrature of E · rgb[c].
+  void expect_closed_form(const std::string& light, const std::function<double(D3)>& irradiance, const double rgb[3]) {
+    Scene s = load(light);
+    ASSERT_EQ(s.camera.width, kRes);
+    Film f = render(s);
+    const double z = luz_test::sidak_z(kFamilyAlpha, 3.0 * kRes * kRes);
+    double worst = 0;
+    int lit = 0;
+    for (int y = 0; y < kRes; ++y)
+      for (int x = 0; x < kRes; ++x) {
+        const PixelRef fine = pixel_reference(irradiance, x, y, 32), coarse = pixel_reference(irradiance, x, y, 16);
+        const size_t i = size_t(y) * kRes + x;
+        const double n = f.count[i];
+        ASSERT_EQ(n, kSpp);
+        lit += fine.mean > 0;
+        for (int c = 0; c < 3; ++c) {
+          const double want = fine.mean * rgb[c], quad_err = std::fabs(fine.mean - coarse.mean) * rgb[c];
+          const double mean = f.sum[3 * i + c] / n;
+          // The pixel mean's standard deviation, known from the reference
+          // (a sample variance can be 0 where a sliver of the pixel is lit).
+          const double var = std::max(fine.var, coarse.var) * rgb[c] * rgb[c];
+          const double sd = std::sqrt(var / n + std::pow(luz_test::rounding_floor(want), 2));
+          const double excess = std::fabs(mean - want) - quad_err;
+          worst = std::max(worst, excess / sd);
+          ASSERT_LE(excess, z * sd) << "pixel " << x << "," << y << " channel " << c << ": " << mean << " vs "
+                                    << want << " (quadrature error " << quad_err << ")";
+        }
+      }
+    std::printf("worst |z| %.2f (threshold %.2f), %d of %d pixels lit\n", worst, z, lit, kRes * kRes);
+    EXPECT_GT(lit, kRes * kRes / 8) << "test bug: the light must reach a good part of the view";
+  }
+};
+
+TEST_F(Lights, PointLightMatchesInverseSquareLaw) {
+  const D3 pos{0.7, -0.4, 1.5};
+  const double rgb[3] = {2, 3, 4};
+  expect_closed_form(R"(<emitter type="point"><point name="position" x="0.7" y="-0.4" z="1.5"/>
+    <rgb name="intensity" value="2, 3, 4"/></emitter>)",
+                     [&](D3 p) {
+                       const D3 d = pos - p;
+                       const double r = norm(d);
+                       return d.z / r / (r * r);  // cos θ / d², intensity per channel in rgb
+                     },
+                     rgb);
+  // Placed by to_world instead of position: the same light.
+  expect_closed_form(R"(<emitter type="point"><transform name="to_world"><translate x="0.7" y="-0.4" z="1.5"/></transform>
+    <rgb name="intensity" value="2, 3, 4"/></emitter>)",
+                     [&](D3 p) {
+                       const D3 d = pos - p;
+                       const double r = norm(d);
+                       return d.z / r / (r * r);
+                     },
+                     rgb);
+}
+
+TEST_F(Lights, SpotLightMatchesItsFalloff) {
+  const D3 pos{-0.5, 0.3, 2.0}, target{0.3, -0.2, 0.0};
+  const D3 axis = unit(target - pos);
+  const double cutoff = 25.0 * M_PI / 180.0, beam = 15.0 * M_PI / 180.0;
+  const double rgb[3] = {5, 5, 2};
+  expect_closed_form(R"(<emitter type="spot">
+    <transform name="to_world"><lookat origin="-0.5, 0.3, 2" target="0.3, -0.2, 0" up="0, 1, 0"/></transform>
+    <float name="cutoff_angle" value="25"/><float name="beam_width" value="15"/>
+    <rgb name="intensity" value="5, 5, 2"/></emitter>)",
+                     [&](D3 p) {
+                       const D3 d = pos - p;
+                       const double r = norm(d);
+                       const D3 out = unit(p - pos);
+                       const double theta = std::acos(std::min(1.0, dot(out, axis)));
+                       const double fall = theta <= beam ? 1.0 : theta < cutoff ? (cutoff - theta) / (cutoff - beam) : 0.0;
+                       return fall * d.z / r / (r * r);
+                     },
+                     rgb);
+}
+
+TEST_F(Lights, DirectionalLightGivesCosineIrradiance) {
+  const D3 dir = unit({0.3, -0.2, -1.0});
+  const double rgb[3] = {1, 2, 0.5};
+  expect_closed_form(R"(<emitter type="directional"><vector name="direction" x="0.3" y="-0.2" z="-1"/>
+    <rgb name="irradiance" value="1, 2, 0.5"/></emitter>)",
+                     [&](D3) { return -dir.z; }, rgb);
+}
+
+// NEE alone finds a delta light: path equals light bit for bit, bsdf is black.
+TEST_F(Lights, OnlyNextEventEstimationSeesDeltaLights) {
+  const std::string spot = R"(<emitter type="spot"><transform name="to_world"><lookat origin="0, 0, 2" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <rgb name="intensity" value="3"/></emitter>)";
+  for (const std::string& light : {spot, std::string(R"(<emitter type="point"><point name="position" x="0" y="0" z="1"/></emitter>)")}) {
+    Film path = render(load(light, "path")), nee = render(load(light, "light")), bsdf = render(load(light, "bsdf"));
+    EXPECT_EQ(path.sum, nee.sum);
+    double total = 0;
+    for (double v : path.sum) total += v;
+    EXPECT_GT(total, 0.0);
+    for (double v : bsdf.sum) ASSERT_EQ(v, 0.0);
+  }
+}
+
+TEST_F(Lights, BadDeltaLightsAreRefused) {
+  auto expect_refused = [&](const std::string& light, const std::string& problem) {
+    const std::string path = write("bad.xml", scene_xml(light));
+    try {
+      load_scene(path);
+      ADD_FAILURE() << "accepted: " << light;
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("bad.xml:"), std::string::npos) << what;
+      EXPECT_NE(what.find(problem), std::string::npos) << what << " (wanted: " << problem << ")";
+    }
+  };
+  expect_refused(R"(<emitter type="spot"><float name="cutoff_angle" value="0"/></emitter>)", "cutoff_angle must be in (0, 90]");
+  expect_refused(R"(<emitter type="spot"><float name="cutoff_angle" value="95"/></emitter>)", "cutoff_angle must be in (0, 90]");
+  expect_refused(R"(<emitter type="spot"><float name="cutoff_angle" value="20"/><float name="beam_width" value="30"/></emitter>)",
+                 "beam_width must be in (0, cutoff_angle]");
+  expect_refused(R"(<emitter type="spot"><rgb name="intensity" value="1, -1, 1"/></emitter>)", "intensity must be finite and not negative");
+  expect_refused(R"(<emitter type="point"><float name="intensity" value="-2"/></emitter>)", "intensity must be finite and not negative");
+  expect_refused(R"(<emitter type="directional"><rgb name="irradiance" value="-1"/></emitter>)", "irradiance must be finite and not negative");
+  expect_refused(R"(<emitter type="point"><point name="position" x="0" y="0" z="1"/><transform name="to_world"><translate x="1"/></transform></emitter>)",
+                 "either 'position' or 'to_world'");
+  expect_refused(R"(<emitter type="directional"><vector name="direction" x="0" y="0" z="0"/></emitter>)", "direction is zero");
+  expect_refused(R"(<emitter type="point"><point name="position" x="0" y="0" z="1e30"/></emitter>)", "beyond 1e18");
+  expect_refused(R"(<emitter type="point"><float name="radius" value="1"/></emitter>)", "unknown parameter 'radius'");
+  expect_refused(R"(<emitter type="sunsky"/>)", "unknown top-level emitter 'sunsky'");
+}
+
+}  // namespace
