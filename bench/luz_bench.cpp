@@ -115,8 +115,7 @@ int main(int argc, char** argv) {
         for (uint32_t s = 0; s < std::min<uint32_t>(desc.spp, 4); ++s) {
           luz::Sampler sampler;
           sampler.start(desc, uint32_t(x), uint32_t(y), s);
-          luz::Vec2 off = luz::sample_filter(scene.settings.filter, sampler.next_2d());
-          luz::Ray r = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+          const luz::Ray r = luz::camera_sample(cam, uint32_t(x), uint32_t(y), sampler, scene.settings.filter);
           uint64_t n = 0;
           const size_t first = rays.size();
           luz::path_li(view, rec, r, sampler, scene.settings.integrator, n);

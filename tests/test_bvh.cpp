@@ -145,8 +145,7 @@ std::vector<TestRay> path_rays(const Scene& s, const EmbreeScene& embree, size_t
       for (int x = int(sample / 3 % 3); x < cam.width && rays.size() < n; x += 3) {
         Sampler sampler;
         sampler.start(desc, uint32_t(x), uint32_t(y), sample);
-        Vec2 off = sample_filter(FilterKind::Box, sampler.next_2d());
-        Ray r = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+        const Ray r = camera_sample(cam, uint32_t(x), uint32_t(y), sampler, FilterKind::Box);
         uint64_t count = 0;
         path_li(view, rec, r, sampler, params, count);
       }
@@ -1331,8 +1330,7 @@ TEST(Bvh, PathTracerOnBvhMatchesEmbree) {
         for (int which = 0; which < 2; ++which) {
           Sampler sampler;
           sampler.start(desc, uint32_t(x), uint32_t(y), k);
-          Vec2 off = sample_filter(FilterKind::Box, sampler.next_2d());
-          Ray r = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+          const Ray r = camera_sample(cam, uint32_t(x), uint32_t(y), sampler, FilterKind::Box);
           uint64_t rays = 0;
           L[which] = which == 0 ? path_li(view, et, r, sampler, c.scene.settings.integrator, rays)
                                 : path_li(view, c.tracer, r, sampler, c.scene.settings.integrator, rays);

@@ -200,8 +200,8 @@ TEST_F(Cli, UnknownPlugins) {
                    "unknown sampler 'multijitter'");
   expect_bad_scene(replace(kScene, "<emitter type=\"area\">", "<emitter type=\"point\">"), "<emitter",
                    "unknown shape emitter 'point'");
-  expect_bad_scene(replace(kScene, "<sensor type=\"perspective\">", "<sensor type=\"thinlens\">"), "<sensor",
-                   "unknown sensor 'thinlens'");
+  expect_bad_scene(replace(kScene, "<sensor type=\"perspective\">", "<sensor type=\"radiancemeter\">"), "<sensor",
+                   "unknown sensor 'radiancemeter'");
   expect_bad_scene(replace(kScene, "  <bsdf type=\"diffuse\" id=\"floor\">", "  <medium type=\"homogeneous\"/>\n  <bsdf type=\"diffuse\" id=\"floor\">"),
                    "<medium", "unsupported element <medium>");
 }

@@ -328,8 +328,7 @@ void record_rays(const Scene& s, std::vector<Ray>& rays, std::vector<uint8_t>& s
     for (int x = 0; x < view.camera.width; ++x) {
       Sampler sampler;
       sampler.start(desc, uint32_t(x), uint32_t(y), 0);
-      Vec2 off = sample_filter(s.settings.filter, sampler.next_2d());
-      Ray r = view.camera.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+      const Ray r = camera_sample(view.camera, uint32_t(x), uint32_t(y), sampler, s.settings.filter);
       uint64_t n = 0;
       path_li(view, rec, r, sampler, s.settings.integrator, n);
     }
@@ -541,6 +540,32 @@ TEST(CudaPassOnHost, SpheresAndFlatShadingMatchCpu) {
   expect_same_samples(passes_on_host(s, 1), cpu(s), 2e-3, "host passes vs CPU, sphere + flat shading, 1 spp");
 }
 
+// The box through a thin lens (the lens sample drawn by camera_sample on
+// every device) and through an orthographic camera as wide as the box.
+Scene cornell_camera(CameraType type, int res, uint32_t spp, uint64_t seed) {
+  Scene s = cornell(res, spp, seed);
+  s.camera.type = type;
+  if (type == CameraType::ThinLens) {
+    s.camera.lens.aperture_radius = 40.f;
+    s.camera.lens.focus_distance = 900.f;
+  } else if (type == CameraType::Orthographic) {
+    s.camera.x_axis = s.camera.x_axis * 300.f;
+    s.camera.y_axis = s.camera.y_axis * 300.f;
+    s.camera.tan_half_x = s.camera.tan_half_y = 1.f;
+  }
+  return s;
+}
+
+TEST(CudaPassOnHost, ThinLensAndOrthographicMatchCpu) {
+  for (CameraType type : {CameraType::ThinLens, CameraType::Orthographic}) {
+    Scene s = cornell_camera(type, 48, 1, 17);
+    expect_same_samples(passes_on_host(s, 1), cpu(s), 2e-3, ("host passes vs CPU, camera " + std::to_string(int(type))).c_str());
+    Scene w = cornell_camera(type, 24, 6, 18);
+    Film mega = passes_on_host(w, 3), wave = wavefront_on_host(w, 3);
+    EXPECT_EQ(wave.sum, mega.sum);
+  }
+}
+
 // Textures and texture coordinates reach the pass logic as they reach the
 // CPU renderer: the same samples with the same seed, and agreement within
 // noise with independent seeds.
@@ -640,6 +665,14 @@ TEST(CudaDevice, WavefrontMatchesMegakernel) {
     EXPECT_EQ(ws.discarded, 0u);
     expect_same_samples(wave, mega, 1e-2, "GPU wavefront vs megakernel, same seed");
     EXPECT_NEAR(double(ws.rays), double(ms.rays), 1e-2 * double(ms.rays));
+  }
+}
+
+TEST(CudaDevice, ThinLensAndOrthographicMatchCpu) {
+  REQUIRE_GPU();
+  for (CameraType type : {CameraType::ThinLens, CameraType::Orthographic}) {
+    Scene s = cornell_camera(type, 64, 1, 17);
+    expect_same_samples(gpu(s), cpu(s), 1e-2, ("GPU vs CPU, 1 spp, camera " + std::to_string(int(type))).c_str());
   }
 }
 

@@ -1,28 +1,63 @@
-// Pinhole perspective camera with Mitsuba's conventions: camera space looks
-// down +z with +y up; +x appears on the LEFT of the image (Mitsuba's lookat
-// builds to_world with columns (left, up, dir, origin)).
+// The camera: a type and the parameters the models share, one dispatch over
+// the models (perspective.h, thin_lens.h, orthographic.h), and
+// camera_sample(), the one function every device calls to turn a pixel's
+// sample into a ray: pixel → filter → lens → ray.
 #pragma once
 
-#include "luz/math/vec.h"
+#include "luz/camera/frame.h"
+#include "luz/camera/orthographic.h"
+#include "luz/camera/perspective.h"
+#include "luz/camera/thin_lens.h"
+#include "luz/film/filter.h"
+#include "luz/sampling/sampler.h"
 
 namespace luz {
 
-struct Camera {
-  // Columns of the camera-to-world matrix (linear part) and its origin.
-  Vec3 x_axis{1, 0, 0}, y_axis{0, 1, 0}, z_axis{0, 0, 1}, origin{};
-  float tan_half_x = 0.5f, tan_half_y = 0.5f;
-  int width = 256, height = 256;
+enum class CameraType : uint32_t { Perspective, ThinLens, Orthographic };
 
-  // (fx, fy): continuous film position in pixels, (0,0) the top-left corner.
-  LUZ_INLINE Ray generate_ray(float fx, float fy) const {
+struct Camera : CameraFrame {
+  CameraType type = CameraType::Perspective;
+  // Half extents of the film in camera space, on the plane z = 1: the
+  // tangents of the half fields of view (perspective, thin lens); for the
+  // orthographic camera the half width and height (Mitsuba's 1 and 1/aspect).
+  float tan_half_x = 0.5f, tan_half_y = 0.5f;
+  // The film's left and top edges in those half extents: 1 − 2 · Mitsuba's
+  // principal_point_offset_x/y (in film widths and heights); 1: centred.
+  float edge_x = 1.f, edge_y = 1.f;
+  int width = 256, height = 256;
+  ThinLens lens;  // CameraType::ThinLens only
+
+  // Whether camera_sample draws a lens sample: a thin lens of radius 0 is a
+  // pinhole and draws none.
+  LUZ_INLINE bool has_lens() const { return type == CameraType::ThinLens && lens.aperture_radius > 0.f; }
+
+  // (fx, fy): continuous film position in pixels, (0,0) the top-left corner;
+  // u: the lens sample, unused without a lens.
+  LUZ_INLINE Ray generate_ray(float fx, float fy, Vec2 u = {0.5f, 0.5f}) const {
     // fx · (2 / width): the division is the same for every ray, so it leaves the per-sample loop.
-    float sx = (1.f - fx * (2.f / float(width))) * tan_half_x;
-    float sy = (1.f - fy * (2.f / float(height))) * tan_half_y;
-    Ray r;
-    r.o = origin;
-    r.d = normalize(x_axis * sx + y_axis * sy + z_axis);
-    return r;
+    const Vec2 p{(edge_x - fx * (2.f / float(width))) * tan_half_x,
+                 (edge_y - fy * (2.f / float(height))) * tan_half_y};
+    switch (type) {
+      case CameraType::ThinLens:
+        return lens.ray(*this, p, u);
+      case CameraType::Orthographic:
+        return orthographic_ray(*this, p);
+      default:
+        return perspective_ray(*this, p);
+    }
   }
 };
+
+// The camera ray of the sampler's current sample of pixel (x, y): the
+// filter's 2D sample first (the sample's first dimension), then, with a lens,
+// the lens sample as a second stream of that same dimension
+// (Sampler::aux_2d), so that the path's dimensions do not depend on the
+// camera and pinhole images are what they were before lenses existed.
+LUZ_INLINE Ray camera_sample(const Camera& cam, uint32_t x, uint32_t y, Sampler& sampler, FilterKind filter) {
+  const uint32_t d = sampler.dim;
+  const Vec2 off = sample_filter(filter, sampler.next_2d());
+  const Vec2 u = cam.has_lens() ? sampler.aux_2d(d) : Vec2{0.5f, 0.5f};
+  return cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y, u);
+}
 
 }  // namespace luz

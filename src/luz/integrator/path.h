@@ -61,7 +61,8 @@ struct IntegratorParams {
   int rr_depth = 5;  // Russian roulette from this depth on (Mitsuba's default)
 };
 
-// Sample dimensions: 0: pixel filter (2D). Then, per vertex, a fixed block so
+// Sample dimensions: 0: the camera (camera_sample: the filter's 2D, and a
+// lens's 2D as that dimension's second stream). Then, per vertex, a fixed block so
 // that a dimension always means the same thing: light choice and point (2D),
 // BSDF lobe (1D), BSDF direction (2D), Russian roulette (1D).
 inline constexpr uint32_t kCameraDims = 1;

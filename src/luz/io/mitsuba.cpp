@@ -424,19 +424,43 @@ class MitsubaParser {
 
   void parse_sensor(pugi::xml_node n) {
     std::string type = attr(n, "type");
-    if (type != "perspective") error(n, "unknown sensor '" + type + "' (supported: perspective)");
+    Camera& cam = scene_.camera;
+    if (type == "perspective") cam.type = CameraType::Perspective;
+    else if (type == "thinlens") cam.type = CameraType::ThinLens;
+    else if (type == "orthographic") cam.type = CameraType::Orthographic;
+    else error(n, "unknown sensor '" + type + "' (supported: perspective, thinlens, orthographic)");
+    const bool projective = cam.type != CameraType::Orthographic;
     check_children(n, {"sampler", "film"});
     Props p(this, n);
-    double fov = p.get_float("fov", 30.0);
-    std::string axis = p.get_string("fov_axis", "x");
+    double fov = 30.0, ppx = 0.0, ppy = 0.0;
+    std::string axis = "x";
+    if (projective) {
+      fov = p.get_float("fov", 30.0);
+      axis = p.get_string("fov_axis", "x");
+      ppx = p.get_float("principal_point_offset_x", 0.0);
+      ppy = p.get_float("principal_point_offset_y", 0.0);
+      // Far beyond any real lens shift; keeps the rays' directions finite.
+      if (std::fabs(ppx) > 1e6 || std::fabs(ppy) > 1e6) error(n, "principal_point_offset_x/y must lie in [-1e6, 1e6]");
+    }
     Matrix4 to_world = p.get_transform("to_world");
     double near_clip = p.get_float("near_clip", 1e-2), far_clip = p.get_float("far_clip", 1e4);
     if (!(near_clip > 0 && far_clip > near_clip)) error(n, "need 0 < near_clip < far_clip");
     if (!(fov > 0 && fov < 180)) error(n, "fov must be in (0, 180) degrees");
+    // Mitsuba's projective cameras all take focus_distance (default far_clip);
+    // only the thin lens uses it.
+    double focus = p.get_float("focus_distance", far_clip);
+    if (!(focus > 0)) error(n, "focus_distance must be > 0");
+    if (cam.type == CameraType::ThinLens) {
+      // Required, as in Mitsuba.
+      if (!p.has("aperture_radius")) error(n, "a thinlens sensor needs an aperture_radius");
+      double radius = p.get_float("aperture_radius", 0.0);
+      if (!(radius >= 0)) error(n, "aperture_radius must be ≥ 0");
+      cam.lens.aperture_radius = float(radius);
+      cam.lens.focus_distance = float(focus);
+    }
     p.check_all_used();
 
     int width = 768, height = 576;
-    Camera& cam = scene_.camera;
     // Mitsuba's defaults when the sensor names no sampler or film: an
     // independent sampler with 4 samples, a 768×576 hdrfilm, a gaussian rfilter.
     scene_.settings.sampler = SamplerType::Independent;
@@ -450,7 +474,8 @@ class MitsubaParser {
     cam.width = width;
     cam.height = height;
     double aspect = double(width) / height, t = std::tan(fov * M_PI / 360.0), tx, ty;
-    if (axis == "x") tx = t, ty = t / aspect;
+    if (!projective) tx = 1, ty = 1 / aspect;  // Mitsuba's orthographic film: [-1, 1] × [-1/aspect, 1/aspect]
+    else if (axis == "x") tx = t, ty = t / aspect;
     else if (axis == "y") ty = t, tx = t * aspect;
     else if (axis == "diagonal") {
       double d = t / std::sqrt(1 + 1 / (aspect * aspect));
@@ -460,16 +485,28 @@ class MitsubaParser {
     else error(n, "fov_axis must be x, y, diagonal, smaller or larger");
     cam.tan_half_x = float(tx);
     cam.tan_half_y = float(ty);
-    cam.x_axis = normalize(to_world.vector({1, 0, 0}));
-    cam.y_axis = normalize(to_world.vector({0, 1, 0}));
+    cam.edge_x = float(1 - 2 * ppx);
+    cam.edge_y = float(1 - 2 * ppy);
     cam.z_axis = normalize(to_world.vector({0, 0, 1}));
-    cam.origin = to_world.point({0, 0, 0});
+    if (projective) {
+      cam.x_axis = normalize(to_world.vector({1, 0, 0}));
+      cam.y_axis = normalize(to_world.vector({0, 1, 0}));
+      cam.origin = to_world.point({0, 0, 0});
+    } else {
+      // to_world's x and y scale the view: kept (orthographic.h).
+      cam.x_axis = to_world.vector({1, 0, 0});
+      cam.y_axis = to_world.vector({0, 1, 0});
+      cam.origin = to_world.point({0, 0, float(near_clip)});
+    }
     // Embree refuses (asserts on) rays whose origin or direction is not finite
     // or exceeds 1.8e18 in magnitude.
     if (!is_finite(cam.x_axis) || !is_finite(cam.y_axis) || !is_finite(cam.z_axis))
       error(n, "the sensor's to_world gives the camera a degenerate orientation");
     if (!is_finite(cam.origin) || max_abs(cam.origin) > kMaxCoordinate)
       error(n, "the camera lies too far from the origin (a coordinate beyond 1e18)");
+    // The film's corners, where orthographic rays start, must stay in range too.
+    if (!projective && max_abs(cam.x_axis) + max_abs(cam.y_axis) * float(ty) + max_abs(cam.origin) > kMaxCoordinate)
+      error(n, "the orthographic view reaches beyond 1e18");
   }
 
   void parse_sampler(pugi::xml_node n) {

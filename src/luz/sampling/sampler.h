@@ -225,9 +225,9 @@ struct Sampler {
     float jitter = to_unit_float(hash_combine(key, i + 1));
     return min((stratum + jitter) / float(n), kOneMinusEpsilon);
   }
-  LUZ_CPU_NOINLINE Vec2 stratified_2d(uint32_t d) const {
+  LUZ_CPU_NOINLINE Vec2 stratified_2d(uint32_t d, uint64_t kind = 1) const {
     uint32_t n = desc.spp, pass = index / n, i = index % n;
-    uint64_t key = hash_combine(dim_key(pixel_key, d, 1), pass);
+    uint64_t key = hash_combine(dim_key(pixel_key, d, kind), pass);
     uint32_t stratum = permute(i, n, uint32_t(key));
     uint32_t sx = stratum % desc.strata_x, sy = stratum / desc.strata_x;
     uint64_t h = hash_combine(key, i + 1);
@@ -239,8 +239,8 @@ struct Sampler {
   // A third 32-bit seed for a 2D draw's dimension 1: the key's two halves remixed.
   LUZ_INLINE static uint32_t third_seed(uint32_t lo, uint32_t hi) { return lowbias32(lo ^ (hi * 0x9e3779b9u)); }
 
-  LUZ_INLINE static Seeds2 compute_seeds_2d(uint64_t pixel_key, uint32_t d) {
-    const uint64_t key = dim_key(pixel_key, d, 1);
+  LUZ_INLINE static Seeds2 compute_seeds_2d(uint64_t pixel_key, uint32_t d, uint64_t kind = 1) {
+    const uint64_t key = dim_key(pixel_key, d, kind);
     const uint32_t lo = uint32_t(key), hi = uint32_t(key >> 32);
     return {lo, hi, third_seed(lo, hi)};
   }
@@ -292,19 +292,40 @@ struct Sampler {
     switch (desc.type) {
       case SamplerType::Stratified:
         return stratified_2d(d);
-      case SamplerType::Sobol: {
-        const Seeds2 s = seeds_2d(d);
-        const uint32_t i = shuffle(s.shuffle);
-        // scrambled_sobol_dim0(i, s.x) and scrambled_sobol_dim1(i, s.y), their
-        // two bit reversals and conversions done together.
-        return reversed_unit_pair(laine_karras_permutation(i, s.x), laine_karras_permutation(sobol_pascal(i), s.y));
-      }
-      default: {
-        // One 64-bit hash, two 24-bit fractions from disjoint bits.
-        uint64_t h = dim_key(sample_key, d, 1);
-        return {to_unit_float(h), float(h & 0xffffffu) * 0x1p-24f};
-      }
+      case SamplerType::Sobol:
+        return sobol_2d(seeds_2d(d));
+      default:
+        return independent_2d(d, 1);
     }
+  }
+
+  // A second 2D stream at dimension d (kind 2, as aux_1d's), beside that
+  // dimension's regular draw; does not advance `dim`. Its x equals aux_1d(d)
+  // (the same key), so a dimension uses one or the other. The camera's lens
+  // takes it at the film's dimension, whose kind-2 stream nothing else draws:
+  // a lens adds no dimension, so the path's dimensions are the same whatever
+  // the camera. Never cached: only thin-lens renders pay for its seeds.
+  LUZ_INLINE Vec2 aux_2d(uint32_t d) const {
+    switch (desc.type) {
+      case SamplerType::Stratified:
+        return stratified_2d(d, 2);
+      case SamplerType::Sobol:
+        return sobol_2d(compute_seeds_2d(pixel_key, d, 2));
+      default:
+        return independent_2d(d, 2);
+    }
+  }
+
+  LUZ_FORCE_INLINE Vec2 sobol_2d(const Seeds2& s) const {
+    const uint32_t i = shuffle(s.shuffle);
+    // scrambled_sobol_dim0(i, s.x) and scrambled_sobol_dim1(i, s.y), their
+    // two bit reversals and conversions done together.
+    return reversed_unit_pair(laine_karras_permutation(i, s.x), laine_karras_permutation(sobol_pascal(i), s.y));
+  }
+  LUZ_FORCE_INLINE Vec2 independent_2d(uint32_t d, uint64_t kind) const {
+    // One 64-bit hash, two 24-bit fractions from disjoint bits.
+    const uint64_t h = dim_key(sample_key, d, kind);
+    return {to_unit_float(h), float(h & 0xffffffu) * 0x1p-24f};
   }
   // The 2D points at dimensions d0 and d1 (a vertex's light and BSDF
   // samples): the same numbers as draw_2d(d0) and draw_2d(d1). For Sobol the

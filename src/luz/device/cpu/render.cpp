@@ -55,8 +55,7 @@ Film render_cpu(const Scene& scene, const CpuRenderOptions& options, RenderStats
               sampler.cache_seeds(seeds, std::min(kSeedCacheDims, desc.spp / 2));
               for (uint32_t s = 0; s < desc.spp; ++s) {
                 sampler.set_sample(s);
-                Vec2 off = sample_filter(rs.filter, sampler.next_2d());
-                Ray ray = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+                const Ray ray = camera_sample(cam, uint32_t(x), uint32_t(y), sampler, rs.filter);
                 Color L = path_li(view, tracer, ray, sampler, rs.integrator, tile_rays);
                 if (is_finite(L))
                   px.add(L);

@@ -78,8 +78,8 @@ struct PassSums {
 };
 
 // Thread t's share of pixel (x, y)'s pass, exactly render_cpu's per-pixel
-// loop: Sampler started at the pixel, set_sample per sample, the filter's 2D
-// sample first, then the camera ray and path_li. Returns the rays traced.
+// loop: Sampler started at the pixel, set_sample per sample, camera_sample,
+// then path_li. Returns the rays traced.
 LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t y, uint32_t t = 0) {
   const Camera& cam = p.scene.camera;
   const uint32_t T = p.threads_per_pixel;
@@ -90,8 +90,7 @@ LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t 
   uint64_t rays = 0;
   for (uint32_t k = k0; k < k1; ++k) {
     sampler.set_sample(p.first_sample + k);
-    Vec2 off = sample_filter(p.filter, sampler.next_2d());
-    Ray ray = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
+    const Ray ray = camera_sample(cam, x, y, sampler, p.filter);
     sums.add(path_li(p.scene, p.tracer, ray, sampler, p.integrator, rays));
   }
   sums.write(p.out, size_t(t) * size_t(cam.width) * size_t(cam.height) + size_t(y) * size_t(cam.width) + x);

@@ -40,9 +40,7 @@ LUZ_INLINE void wf_generate(const WavefrontParams& p, uint32_t i) {
   const uint32_t x = pixel % uint32_t(cam.width), y = pixel / uint32_t(cam.width);
   Sampler s;
   s.start(p.pass.sampler, x, y, p.pass.first_sample + k);
-  Vec2 off = sample_filter(p.pass.filter, s.next_2d());
-  Ray ray = cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y);
-  p.state[i] = path_start(ray);
+  p.state[i] = path_start(camera_sample(cam, x, y, s, p.pass.filter));
   p.sampler[i] = s;
   p.shadow[i].active = false;
 }
