@@ -21,6 +21,9 @@
 // same image as the light estimator, bit for bit, and the bsdf estimator a
 // black one.
 //
+// A scene without a light (or whose lights are all black) renders, with a
+// one-line warning that the image will be black.
+//
 // Bad input: a cutoff_angle outside (0, 90], a beam_width above it, negative
 // intensities, a position and a to_world together: one file:line error.
 #include <gtest/gtest.h>
@@ -32,6 +35,7 @@
 #include "luz/device/cpu/render.h"
 #include "luz/io/error.h"
 #include "luz/io/scene_loader.h"
+#include "cli_helpers.h"
 #include "stat_helpers.h"
 #include "temp_dir.h"
 
@@ -236,6 +240,23 @@ TEST_F(Lights, BadDeltaLightsAreRefused) {
   expect_refused(R"(<emitter type="point"><point name="position" x="0" y="0" z="1e30"/></emitter>)", "beyond 1e18");
   expect_refused(R"(<emitter type="point"><float name="radius" value="1"/></emitter>)", "unknown parameter 'radius'");
   expect_refused(R"(<emitter type="sunsky"/>)", "unknown top-level emitter 'sunsky'");
+}
+
+class LightsCli : public luz_test::LuzCliTest {};
+
+TEST_F(LightsCli, NoLightWarnsThatTheImageWillBeBlack) {
+  for (const std::string& light : {std::string(""), std::string(R"(<emitter type="point"><rgb name="intensity" value="0"/></emitter>)")}) {
+    write("dark.xml", scene_xml(light));
+    luz_test::CliResult r = run({"render", "dark.xml", "-o", "dark.pfm", "--threads", "1", "--spp", "1"});
+    EXPECT_TRUE(r.exited && r.status == 0) << r.err;
+    EXPECT_NE(r.err.find("warning: dark.xml: the scene has no light that emits, so the image will be black"), std::string::npos)
+        << r.err;
+    EXPECT_TRUE(std::filesystem::exists(dir / "dark.pfm"));
+  }
+  write("lit.xml", scene_xml(R"(<emitter type="point"><point name="position" x="0" y="0" z="1"/></emitter>)"));
+  luz_test::CliResult r = run({"render", "lit.xml", "-o", "lit.pfm", "--threads", "1", "--spp", "1"});
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_EQ(r.err.find("no light"), std::string::npos) << r.err;
 }
 
 }  // namespace

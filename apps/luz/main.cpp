@@ -87,6 +87,9 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
   std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu lights, on %s\n", scene_path.c_str(),
                scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(), scene.spheres.size(),
                scene.lights.size(), use_cuda ? luz::cuda_device_name().c_str() : "the CPU");
+  if (scene.light_cdf.empty())
+    std::fprintf(stderr, "luz: warning: %s: the scene has no light that emits, so the image will be black\n",
+                 scene_path.c_str());
   luz::Film film;
   if (use_cuda) {
     luz::CudaRenderOptions opt;
