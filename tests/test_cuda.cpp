@@ -566,6 +566,46 @@ TEST(CudaPassOnHost, ThinLensAndOrthographicMatchCpu) {
   }
 }
 
+// The box also lit by a point, a spot and a directional light and an
+// environment map (the light data array uploaded and read as on the CPU).
+Scene cornell_lights(int res, uint32_t spp, uint64_t seed) {
+  Scene s = cornell(res, spp, seed);
+  const Vec3 c = (s.bounds_min + s.bounds_max) * 0.5f, ext = s.bounds_max - s.bounds_min;
+  PointLight point;
+  point.position = c + Vec3{0.2f * ext.x, 0.3f * ext.y, 0.f};
+  point.intensity = {2e4f, 1.5e4f, 1e4f};
+  SpotLight spot;
+  spot.position = c - Vec3{0.3f * ext.x, -0.2f * ext.y, 0.f};
+  spot.intensity = {3e4f, 3e4f, 3e4f};
+  spot.inv_x = {1, 0, 0};
+  spot.inv_y = {0, 0, 1};
+  spot.inv_z = {0, -1, 0};  // pointing down -y
+  spot.cutoff = 0.5f;
+  spot.beam = 0.3f;
+  spot.cos_cutoff = std::cos(0.5f);
+  spot.cos_beam = std::cos(0.3f);
+  spot.inv_transition = 1.f / 0.2f;
+  DirectionalLight sun;
+  sun.direction = normalize(Vec3{0.2f, -0.3f, -1.f});
+  sun.irradiance = {0.5f, 0.5f, 0.5f};
+  EnvmapLight env;
+  std::vector<float> rgb(8 * 5 * 3);
+  for (size_t k = 0; k < rgb.size(); ++k) rgb[k] = 0.2f + float(k % 7) * 0.3f;
+  env.to_world_x = env.to_local_x = {1, 0, 0};
+  env.to_world_y = env.to_local_y = {0, 1, 0};
+  env.to_world_z = env.to_local_z = {0, 0, 1};
+  build_envmap(env, rgb, 8, 5, s.light_data);
+  for (const Light& l : {Light(point), Light(spot), Light(sun), Light(env)}) s.lights.push_back(l);
+  s.compile();
+  EXPECT_GE(s.lights.size(), 5u);
+  return s;
+}
+
+TEST(CudaPassOnHost, PointSpotDirectionalAndEnvmapMatchCpu) {
+  Scene s = cornell_lights(48, 1, 19);
+  expect_same_samples(passes_on_host(s, 1), cpu(s), 2e-3, "host passes vs CPU, delta lights and envmap, 1 spp");
+}
+
 // Textures and texture coordinates reach the pass logic as they reach the
 // CPU renderer: the same samples with the same seed, and agreement within
 // noise with independent seeds.
@@ -685,16 +725,29 @@ TEST(CudaDevice, SpheresAndFlatShadingMatchCpu) {
   expect_same_samples(g, c, 1e-2, "GPU vs CPU, sphere + flat shading, 1 spp, same seed");
 }
 
-// Every BSDF model's scene on the GPU against the CPU renderer, within noise.
+// A scene on the GPU against the CPU renderer: the same samples with the
+// same seed (1 spp at res), and agreement within noise with independent
+// seeds (spp at res / 2).
+void gpu_matches_cpu(Scene (*make)(int, uint32_t, uint64_t), int res, uint32_t spp, uint64_t seed, const std::string& what) {
+  Scene s = make(res, 1, seed);
+  expect_same_samples(gpu(s), cpu(s), 1e-2, ("GPU vs CPU, " + what + ", 1 spp, same seed").c_str());
+  Scene a = make(res / 2, spp, seed + 1), b = make(res / 2, spp, seed + 2);
+  expect_agree(gpu(a), cpu(b), ("GPU vs CPU, " + what + ", independent seeds").c_str());
+}
+
 // The texel and uv arrays are uploaded and read on the GPU as on the CPU.
 TEST(CudaDevice, TexturedSceneMatchesCpu) {
   REQUIRE_GPU();
-  Scene s = textured_cornell(128, 1, 14);
-  expect_same_samples(gpu(s), cpu(s), 1e-2, "GPU vs CPU, textured, 1 spp, same seed");
-  Scene a = textured_cornell(64, 256, 45), b = textured_cornell(64, 256, 46);
-  expect_agree(gpu(a), cpu(b), "GPU vs CPU, textured, 256 spp, independent seeds");
+  gpu_matches_cpu(textured_cornell, 128, 256, 14, "textured");
 }
 
+// So are the lights and their data array.
+TEST(CudaDevice, PointSpotDirectionalAndEnvmapMatchCpu) {
+  REQUIRE_GPU();
+  gpu_matches_cpu(cornell_lights, 96, 128, 20, "delta lights and envmap");
+}
+
+// Every BSDF model's scene on the GPU against the CPU renderer, within noise.
 TEST(CudaDevice, MaterialScenesAgreeWithCpu) {
   REQUIRE_GPU();
   for (const char* m : kMaterialModels) {

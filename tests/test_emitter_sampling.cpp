@@ -177,7 +177,7 @@ void check_emitter(const SceneView& view, const Ref& light, D3 ref, const chi2::
   double worst_ls = 0.0, worst_ep = 0.0;
   uint64_t checked = 0;
   auto sample = [&](uint64_t i, Vec3& w) {
-    LightSample ls = sample_li(lt, ctx, chi2::rand2(seed, i, 0));
+    LightSample ls = sample_li(lt, ctx, chi2::rand2(seed, i, 0), nullptr);
     if (!(ls.pdf > 0.f)) return false;
     w = ls.wi;
     if (i % 16 == 0) {
@@ -198,7 +198,7 @@ void check_emitter(const SceneView& view, const Ref& light, D3 ref, const chi2::
           it.ng = v3(light.flip ? mul(n_out, -1.0) : n_out);
         }
         it.ns = it.ng;
-        float ep = pdf_li(lt, ctx, ls.wi, {it.ng, float(*t)});
+        float ep = pdf_li(lt, ctx, ls.wi, {it.ng, float(*t)}, nullptr);
         worst_ep = std::max(worst_ep, std::fabs(ep - want) / want);
         // The sample's own light point and distance agree with ours.
         EXPECT_NEAR(ls.dist, *t, 1e-5 * *t + 1e-6) << what;
@@ -381,26 +381,26 @@ TEST(EmitterSampling, BackFacesGiveNothing) {
     auto s = triangle_scene(back);
     for (uint64_t i = 0; i < 1000; ++i) {
       const LightSampleContext ctx{v3(ref), {}, {}};
-      LightSample ls = sample_li(s->view.lights[0], ctx, chi2::rand2(30, i, 0));
+      LightSample ls = sample_li(s->view.lights[0], ctx, chi2::rand2(30, i, 0), nullptr);
       ASSERT_EQ(ls.pdf, 0.f);
       Interaction it;
       it.ng = v3(back.n);
       it.emitter = 0;
-      ASSERT_EQ(pdf_li(s->view.lights[0], ctx, ls.wi, {it.ng, ls.dist}), 0.f);
+      ASSERT_EQ(pdf_li(s->view.lights[0], ctx, ls.wi, {it.ng, ls.dist}, nullptr), 0.f);
     }
   }
   {
     SphereRef outward{{0, 0, 0}, 1.0, false};
     auto s = sphere_scene(outward);
     for (uint64_t i = 0; i < 1000; ++i)
-      ASSERT_EQ(sample_li(s->view.lights[0], {{0.2f, 0.3f, -0.1f}, {}, {}}, chi2::rand2(31, i, 0)).pdf, 0.f)
+      ASSERT_EQ(sample_li(s->view.lights[0], {{0.2f, 0.3f, -0.1f}, {}, {}}, chi2::rand2(31, i, 0), nullptr).pdf, 0.f)
           << "outward sphere seen from inside";
   }
   {
     SphereRef inward{{0, 0, 0}, 1.0, true};
     auto s = sphere_scene(inward);
     for (uint64_t i = 0; i < 1000; ++i)
-      ASSERT_EQ(sample_li(s->view.lights[0], {{0.5f, 2.f, -0.1f}, {}, {}}, chi2::rand2(32, i, 0)).pdf, 0.f)
+      ASSERT_EQ(sample_li(s->view.lights[0], {{0.5f, 2.f, -0.1f}, {}, {}}, chi2::rand2(32, i, 0), nullptr).pdf, 0.f)
           << "flipped sphere seen from outside";
   }
 }

@@ -36,6 +36,7 @@
 #include "luz/io/error.h"
 #include "luz/io/scene_loader.h"
 #include "cli_helpers.h"
+#include "scene_helpers.h"
 #include "stat_helpers.h"
 #include "temp_dir.h"
 
@@ -109,14 +110,7 @@ class Lights : public TempDirTest {
   Scene load(const std::string& light, const std::string& integrator = "path") {
     return load_scene(write("scene.xml", scene_xml(light, integrator)));
   }
-  static Film render(const Scene& s) {
-    CpuRenderOptions opt;
-    opt.threads = 2;
-    RenderStats stats;
-    Film f = render_cpu(s, opt, stats);
-    EXPECT_EQ(stats.discarded, 0u);
-    return f;
-  }
+  static Film render(const Scene& s) { return luz_test::render_finite(s); }
 
   // Every pixel and channel against the quadrature of E · rgb[c].
   void expect_closed_form(const std::string& light, const std::function<double(D3)>& irradiance, const double rgb[3]) {
@@ -217,15 +211,7 @@ TEST_F(Lights, OnlyNextEventEstimationSeesDeltaLights) {
 
 TEST_F(Lights, BadDeltaLightsAreRefused) {
   auto expect_refused = [&](const std::string& light, const std::string& problem) {
-    const std::string path = write("bad.xml", scene_xml(light));
-    try {
-      load_scene(path);
-      ADD_FAILURE() << "accepted: " << light;
-    } catch (const InputError& e) {
-      const std::string what = e.what();
-      EXPECT_NE(what.find("bad.xml:"), std::string::npos) << what;
-      EXPECT_NE(what.find(problem), std::string::npos) << what << " (wanted: " << problem << ")";
-    }
+    luz_test::expect_load_refused(write("bad.xml", scene_xml(light)), "bad.xml", problem);
   };
   expect_refused(R"(<emitter type="spot"><float name="cutoff_angle" value="0"/></emitter>)", "cutoff_angle must be in (0, 90]");
   expect_refused(R"(<emitter type="spot"><float name="cutoff_angle" value="95"/></emitter>)", "cutoff_angle must be in (0, 90]");

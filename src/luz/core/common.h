@@ -77,6 +77,7 @@ LUZ_INLINE float max(float a, float b) { return a > b ? a : b; }
 LUZ_INLINE float clamp(float v, float lo, float hi) { return v < lo ? lo : (v > hi ? hi : v); }
 LUZ_INLINE int min(int a, int b) { return a < b ? a : b; }
 LUZ_INLINE int max(int a, int b) { return a > b ? a : b; }
+LUZ_INLINE uint32_t min(uint32_t a, uint32_t b) { return a < b ? a : b; }
 LUZ_INLINE float sqr(float v) { return v * v; }
 LUZ_INLINE float safe_sqrt(float v) { return __builtin_sqrtf(v > 0.f ? v : 0.f); }
 LUZ_INLINE bool is_finite(float v) { return v - v == 0.f; }

@@ -152,8 +152,8 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     if (!found) {
       if (lights.environment >= 0) {
         const Light& env = lights[uint32_t(lights.environment)];
-        Le = le(env, ray.d);
-        light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(lights.environment)) * pdf_li(env, prev_ctx, ray.d, {});
+        Le = le(env, ray.d, lights.data);
+        light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(lights.environment)) * pdf_li(env, prev_ctx, ray.d, {}, lights.data);
       }
     } else {
       it = scene.interaction(ray, hit);
@@ -161,7 +161,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
         const Light& light = lights[uint32_t(it.emitter)];
         Le = eval(light, it.ng, -ray.d);
         if (!is_black(Le) && weigh && use_mis)
-          light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(it.emitter)) * pdf_li(light, prev_ctx, ray.d, {it.ng, hit.t});
+          light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(it.emitter)) * pdf_li(light, prev_ctx, ray.d, {it.ng, hit.t}, lights.data);
       }
     }
     if (!is_black(Le)) {
@@ -207,7 +207,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       const LightSampleContext ctx{it.p, it.ng, it.ns};
       const SampledLight sl = lights.sampler.sample(ctx, u_light2.x);
       if (sl.pmf < kMinReusePmf) u_light2.x = sampler.aux_1d(base_dim);
-      const LightSample ls = sample_li(lights[sl.light], ctx, u_light2);
+      const LightSample ls = sample_li(lights[sl.light], ctx, u_light2, lights.data);
       if (ls.pdf > 0.f) {
         Vec3 wi = frame.to_local(ls.wi);
         const Color f = plain ? bsdf.f_diffuse(wo, wi) : bsdf.f_general(wo, wi, TransportMode::Radiance);

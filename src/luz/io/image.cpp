@@ -201,4 +201,29 @@ Image8 read_image8(const std::string& path) {
   return img;
 }
 
+Image read_image_linear(const std::string& path) {
+  const std::string e = extension(path);
+  if (e == ".exr") return read_exr(path);
+  if (e == ".pfm") return read_pfm(path);
+  Image img;
+  if (e == ".hdr") {
+    int w = 0, h = 0, channels = 0;
+    float* px = stbi_loadf(path.c_str(), &w, &h, &channels, 3);
+    if (!px) throw InputError(path, 0, std::string("cannot read Radiance HDR image: ") + stbi_failure_reason());
+    img.width = w;
+    img.height = h;
+    img.rgb.assign(px, px + size_t(w) * size_t(h) * 3);
+    stbi_image_free(px);
+  } else {
+    const Image8 ldr = read_image8(path);  // names the supported formats when e is none of them
+    img.width = ldr.width;
+    img.height = ldr.height;
+    img.rgb.resize(ldr.rgba.size() * 3);
+    for (size_t k = 0; k < ldr.rgba.size(); ++k)
+      for (int c = 0; c < 3; ++c) img.rgb[3 * k + c] = float(srgb_to_linear(((ldr.rgba[k] >> (8 * c)) & 0xff) / 255.0));
+  }
+  if (img.rgb.empty()) throw InputError(path, 0, "image is empty");
+  return img;
+}
+
 }  // namespace luz

@@ -29,6 +29,10 @@ Image8 read_image8(const std::string& path);
 void write_image(const std::string& path, const Image& img);
 Image read_exr(const std::string& path);
 Image read_pfm(const std::string& path);
+// A linear float RGB image from OpenEXR, PFM, Radiance HDR, or an 8-bit
+// format (JPEG, PNG, TGA, BMP: decoded from sRGB); throws InputError naming
+// the path.
+Image read_image_linear(const std::string& path);
 
 float linear_to_srgb(float v);
 

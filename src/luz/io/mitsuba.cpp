@@ -1,7 +1,7 @@
 // Mitsuba 3 XML scenes. Supported: <default>/$name, ref/id, integrator
 // path|bsdf|light, sensor perspective, samplers, hdrfilm (and ldrfilm) with
 // box/tent/gaussian rfilter, shapes obj/rectangle/cube/sphere, emitters
-// area, constant, point, spot and directional, bsdfs diffuse,
+// area, constant, envmap, point, spot and directional, bsdfs diffuse,
 // phong, blinnphong (Luz's own), conductor,
 // roughconductor, dielectric, roughdielectric, thindielectric, plastic,
 // roughplastic, ward (ward, ward-duer, balanced), blendbsdf, twosided (one or
@@ -981,9 +981,52 @@ class MitsubaParser {
       if (!(len > 0.f) || !std::isfinite(len)) error(n, "the directional light's direction is zero or not finite");
       l.direction = d / len;
       scene_.lights.push_back(l);
+    } else if (type == "envmap") {
+      parse_envmap(n, p);
     } else {
-      error(n, "unknown top-level emitter '" + type + "' (supported: constant, point, spot, directional)");
+      error(n, "unknown top-level emitter '" + type + "' (supported: constant, envmap, point, spot, directional)");
     }
+  }
+
+  // An equirectangular environment map: filename (relative to the scene
+  // file; OpenEXR, Radiance HDR, PFM, or 8-bit sRGB), scale, to_world.
+  void parse_envmap(pugi::xml_node n, Props& p) {
+    const std::string file = p.get_string("filename", "");
+    if (file.empty()) error(n, "envmap needs a 'filename'");
+    const double scale = p.get_float("scale", 1.0);
+    Matrix4 to_world = p.get_transform("to_world");
+    p.check_all_used();
+    if (!(scale >= 0.0) || !std::isfinite(scale)) error(n, "scale must be finite and not negative");
+    for (const Light& l : scene_.lights)
+      if (is_environment(l)) error(n, "only one environment emitter is supported");
+    const fs::path full = fs::path(path_).parent_path() / file;
+    std::error_code ec;
+    if (!fs::is_regular_file(full, ec))
+      error(n, "cannot open envmap '" + full.string() + "': " + (fs::exists(full, ec) ? "not a regular file" : "no such file"));
+    Image img;
+    try {
+      img = read_image_linear(full.string());
+    } catch (const InputError& e) {
+      error(n, e.what());
+    }
+    if (img.width < 2 || img.height < 3) error(n, "envmap '" + file + "' must be at least 2x3 pixels");
+    if (size_t(img.width) * size_t(img.height) > (size_t(1) << 28))
+      error(n, "envmap '" + file + "' has more than 2^28 pixels");
+    for (size_t k = 0; k < img.rgb.size(); ++k)
+      if (!(img.rgb[k] >= 0.f) || !std::isfinite(img.rgb[k])) {
+        const size_t px = k / 3;
+        error(n, "envmap '" + file + "': pixel (" + std::to_string(px % size_t(img.width)) + ", " +
+                     std::to_string(px / size_t(img.width)) + ") is " + (std::isfinite(img.rgb[k]) ? "negative" : "not finite"));
+      }
+    EnvmapLight l;
+    l.scale = float(scale);
+    l.to_world_x = to_world.vector({1, 0, 0});
+    l.to_world_y = to_world.vector({0, 1, 0});
+    l.to_world_z = to_world.vector({0, 0, 1});
+    if (!inverse_rows(to_world, l.to_local_x, l.to_local_y, l.to_local_z))
+      error(n, "the envmap's to_world is degenerate");
+    build_envmap(l, img.rgb, uint32_t(img.width), uint32_t(img.height), scene_.light_data);
+    scene_.lights.push_back(l);
   }
 
   void parse_shape(pugi::xml_node n) {

@@ -33,7 +33,7 @@ struct PlanarLight {
   Vec3 normal;  // unit, the emitting side
   float area = 0.f;
 
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit& h) const {
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit& h, const float*) const {
     return planar_pdf(h.n, area, wi, h.dist);
   }
   LUZ_INLINE Color eval(Vec3 n, Vec3 w) const { return one_sided(radiance, n, w); }
@@ -44,7 +44,7 @@ struct TriangleLight : PlanarLight {
   uint32_t prim = 0;  // the triangle
   Vec3 v0, v1, v2;    // its vertices, copied: no index look-ups when sampling
 
-  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u) const {
+  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const float*) const {
     return area_light_sample(triangle_sample(v0, v1, v2, normal, area, ctx.p, u), radiance);
   }
 };
@@ -53,7 +53,7 @@ struct ParallelogramLight : PlanarLight {
   uint32_t prim = 0, prim2 = 0;  // its two triangles
   Vec3 corner, e1, e2;           // points corner + u e1 + v e2
 
-  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u) const {
+  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const float*) const {
     return area_light_sample(parallelogram_sample(corner, e1, e2, normal, area, ctx.p, u), radiance);
   }
 };
@@ -67,10 +67,10 @@ struct SphereLight {
   float radius = 0.f;
   bool flip = false;  // emits inward
 
-  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u) const {
+  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const float*) const {
     return area_light_sample(sphere_sample(center, radius, flip, ctx.p, u), radiance);
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit& h) const {
+  LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const float*) const {
     return sphere_pdf(center, radius, ctx.p, h.n, wi, h.dist);
   }
   LUZ_INLINE Color eval(Vec3 n, Vec3 w) const { return one_sided(radiance, n, w); }

@@ -13,7 +13,7 @@ struct ConstantLight {
   static constexpr bool kDelta = false, kEnvironment = true;
   Color radiance;
 
-  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2 u) const {
+  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2 u, const float*) const {
     LightSample ls;
     ls.wi = square_to_uniform_sphere(u);
     ls.dist = kInfinity;
@@ -21,8 +21,8 @@ struct ConstantLight {
     ls.radiance = radiance;
     return ls;
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&) const { return uniform_sphere_pdf(); }
-  LUZ_INLINE Color le(Vec3) const { return radiance; }
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return uniform_sphere_pdf(); }
+  LUZ_INLINE Color le(Vec3, const float*) const { return radiance; }
   // The flux through the scene's bounding disk.
   double phi(float scene_radius) const {
     return M_PI * (M_PI * double(scene_radius) * scene_radius) * std::max(0.0, double(average(radiance)));

@@ -13,7 +13,7 @@ struct DirectionalLight {
   Color irradiance;  // W/m² on a surface perpendicular to the light
   Vec3 direction;    // unit, the way the light travels
 
-  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2) const {
+  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2, const float*) const {
     LightSample ls;
     ls.wi = -direction;
     ls.dist = kInfinity;
@@ -22,7 +22,7 @@ struct DirectionalLight {
     ls.delta = true;
     return ls;
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&) const { return 0.f; }
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return 0.f; }
   LUZ_INLINE Color eval(Vec3, Vec3) const { return {}; }
   // The flux through the scene's bounding disk.
   double phi(float scene_radius) const {

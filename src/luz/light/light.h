@@ -3,13 +3,14 @@
 // struct with
 //   static constexpr bool kDelta;        // a point or a direction: found by no ray
 //   static constexpr bool kEnvironment;  // found by the rays that leave the scene
-//   LightSample sample_li(const LightSampleContext&, Vec2 u) const;
-//   float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit&) const;
+//   LightSample sample_li(const LightSampleContext&, Vec2 u, const float* data) const;
+//   float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit&, const float* data) const;
 //   Color eval(Vec3 n, Vec3 w) const;   // others: radiance from a surface point of normal n toward w
-//   Color le(Vec3 dir) const;           // environments: radiance arriving along -dir, from dir
+//   Color le(Vec3 dir, const float* data) const;  // environments: radiance arriving along -dir, from dir
 //   double phi(float scene_radius) const;  // power (host), for light selection
 // pdf_li is the solid-angle density with which sample_li finds the light
-// along wi (0 for delta lights: no ray finds them).
+// along wi (0 for delta lights: no ray finds them). `data`: the lights' shared
+// float array (LightsView::data), where images and distributions live.
 #pragma once
 
 #include <type_traits>
@@ -17,12 +18,13 @@
 #include "luz/light/area.h"
 #include "luz/light/constant.h"
 #include "luz/light/directional.h"
+#include "luz/light/envmap.h"
 #include "luz/light/point.h"
 #include "luz/light/spot.h"
 
 namespace luz {
 
-enum class LightType : uint32_t { Triangle, Parallelogram, Sphere, Constant, Point, Spot, Directional };
+enum class LightType : uint32_t { Triangle, Parallelogram, Sphere, Constant, Point, Spot, Directional, Envmap };
 
 struct Light {
   LightType type = LightType::Triangle;
@@ -34,6 +36,7 @@ struct Light {
     PointLight point;
     SpotLight spot;
     DirectionalLight directional;
+    EnvmapLight envmap;
   };
 
   LUZ_INLINE Light() : triangle() {}
@@ -44,6 +47,7 @@ struct Light {
   LUZ_INLINE Light(const PointLight& m) : type(LightType::Point), point(m) {}
   LUZ_INLINE Light(const SpotLight& m) : type(LightType::Spot), spot(m) {}
   LUZ_INLINE Light(const DirectionalLight& m) : type(LightType::Directional), directional(m) {}
+  LUZ_INLINE Light(const EnvmapLight& m) : type(LightType::Envmap), envmap(m) {}
 };
 static_assert(std::is_trivially_copyable_v<Light>, "lights are copied to the GPU as bytes");
 
@@ -57,16 +61,17 @@ LUZ_FORCE_INLINE decltype(auto) visit(const Light& l, F&& f) {
     case LightType::Constant: return f(l.constant);
     case LightType::Point: return f(l.point);
     case LightType::Spot: return f(l.spot);
-    default: return f(l.directional);
+    case LightType::Directional: return f(l.directional);
+    default: return f(l.envmap);
   }
 }
 
-LUZ_FORCE_INLINE LightSample sample_li(const Light& l, const LightSampleContext& ctx, Vec2 u) {
-  return visit(l, [&](const auto& m) { return m.sample_li(ctx, u); });
+LUZ_FORCE_INLINE LightSample sample_li(const Light& l, const LightSampleContext& ctx, Vec2 u, const float* data) {
+  return visit(l, [&](const auto& m) { return m.sample_li(ctx, u, data); });
 }
 
-LUZ_INLINE float pdf_li(const Light& l, const LightSampleContext& ctx, Vec3 wi, const LightHit& h) {
-  return visit(l, [&](const auto& m) { return m.pdf_li(ctx, wi, h); });
+LUZ_INLINE float pdf_li(const Light& l, const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const float* data) {
+  return visit(l, [&](const auto& m) { return m.pdf_li(ctx, wi, h, data); });
 }
 
 // Radiance a surface light sends from a point of normal n toward w.
@@ -78,9 +83,9 @@ LUZ_INLINE Color eval(const Light& l, Vec3 n, Vec3 w) {
 }
 
 // Radiance an environment sends along -dir (a ray leaving the scene along dir).
-LUZ_INLINE Color le(const Light& l, Vec3 dir) {
+LUZ_INLINE Color le(const Light& l, Vec3 dir, const float* data) {
   return visit(l, [&](const auto& m) {
-    if constexpr (std::decay_t<decltype(m)>::kEnvironment) return m.le(dir);
+    if constexpr (std::decay_t<decltype(m)>::kEnvironment) return m.le(dir, data);
     else return Color{};
   });
 }

@@ -29,10 +29,10 @@ struct PointLight {
   Color intensity;  // W/sr
   Vec3 position;
 
-  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2) const {
+  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2, const float*) const {
     return point_light_sample(position, ctx.p, intensity);
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&) const { return 0.f; }
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return 0.f; }
   LUZ_INLINE Color eval(Vec3, Vec3) const { return {}; }
   double phi(float) const { return 4.0 * M_PI * std::max(0.0, double(average(intensity))); }
 };

@@ -28,13 +28,13 @@ struct SpotLight {
     return (cutoff - acosf(cos_theta)) * inv_transition;
   }
 
-  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2) const {
+  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2, const float*) const {
     const Vec3 w = ctx.p - position;  // from the light toward the shading point
     const float f = falloff({dot(inv_x, w), dot(inv_y, w), dot(inv_z, w)});
     if (!(f > 0.f)) return {};
     return point_light_sample(position, ctx.p, intensity * f);
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&) const { return 0.f; }
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return 0.f; }
   LUZ_INLINE Color eval(Vec3, Vec3) const { return {}; }
   // 2π I ∫ falloff(θ) sin θ dθ = 2π I (1 - (sin c - sin b) / (c - b)),
   // 2π I (1 - cos c) when b = c.

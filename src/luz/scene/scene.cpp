@@ -238,7 +238,8 @@ void Scene::compile() {
         l.sphere.flip = sp.flip_normals;
         break;
       }
-      case LightType::Constant: environment = int32_t(e); break;
+      case LightType::Constant:
+      case LightType::Envmap: environment = int32_t(e); break;
       case LightType::Point:
       case LightType::Spot:
       case LightType::Directional: break;  // nothing derived
@@ -288,6 +289,7 @@ SceneView Scene::view() const {
   v.lights.sampler.cdf = light_cdf.data();
   v.lights.sampler.pmfs = light_pmf.data();
   v.lights.sampler.n = light_cdf.empty() ? 0 : uint32_t(lights.size());
+  v.lights.data = light_data.data();
   v.camera = camera;
   v.bounds_center = (bounds_min + bounds_max) * 0.5f;
   v.bounds_radius = std::max(0.5f * length(bounds_max - bounds_min), 1e-3f);

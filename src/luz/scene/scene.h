@@ -40,6 +40,7 @@ struct Scene {
 
   // Filled by compile().
   std::vector<float> light_cdf, light_pmf;
+  std::vector<float> light_data;  // what LightsView::data points to (filled by the loaders)
   std::vector<Vec3> tri_normals;  // unit geometric normal per triangle (the CPU's SceneView)
   int32_t environment = -1;
   Vec3 bounds_min{}, bounds_max{};

@@ -318,6 +318,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.lights.list = up.upload(scene.lights, "lights");
   dev.lights.sampler.cdf = up.upload(scene.light_cdf, "the light CDF");
   dev.lights.sampler.pmfs = up.upload(scene.light_pmf, "the light PMF");
+  dev.lights.data = up.upload(scene.light_data, "environment maps");
   const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres);
 
   const uint32_t per_pass = options.samples_per_pass
