@@ -144,12 +144,11 @@ TEST(BsdfModels, CasesCoverEveryType) {
   for (uint32_t i = 0; i < kBsdfTypeCount; ++i) {
     BsdfComponent c;
     c.type = BsdfType(i);
-    const BsdfFlags fl = flags(c);
-    EXPECT_TRUE(!fl.delta_only || fl.has_delta) << "type " << i << ": delta-only implies a delta lobe";
+    EXPECT_TRUE(!is_delta_only(c) || has_delta_lobe(c)) << "type " << i << ": delta-only implies a delta lobe";
     auto has = [&](const Case& k) { return uses(k, c.type); };
-    if (!fl.delta_only)
+    if (!is_delta_only(c))
       EXPECT_TRUE(std::any_of(models().begin(), models().end(), has)) << "type " << i << " not in models()";
-    if (fl.has_delta) EXPECT_TRUE(std::any_of(deltas.begin(), deltas.end(), has)) << "type " << i << " not in delta_models()";
+    if (has_delta_lobe(c)) EXPECT_TRUE(std::any_of(deltas.begin(), deltas.end(), has)) << "type " << i << " not in delta_models()";
   }
 }
 

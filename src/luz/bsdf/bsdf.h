@@ -96,15 +96,15 @@ LUZ_FORCE_INLINE decltype(auto) visit(const BsdfComponent& c, F&& f) {
   }
 }
 
-// The component's model's flags.
-struct BsdfFlags {
-  bool delta_only, has_delta, transmission;
-};
-LUZ_INLINE BsdfFlags flags(const BsdfComponent& c) {
-  return visit(c, [](const auto& m) {
-    using M = std::decay_t<decltype(m)>;
-    return BsdfFlags{M::kDeltaOnly, M::kHasDelta, M::kTransmission};
-  });
+// The flags of the component's model.
+LUZ_INLINE bool is_delta_only(const BsdfComponent& c) {
+  return visit(c, [](const auto& m) { return std::decay_t<decltype(m)>::kDeltaOnly; });
+}
+LUZ_INLINE bool has_delta_lobe(const BsdfComponent& c) {
+  return visit(c, [](const auto& m) { return std::decay_t<decltype(m)>::kHasDelta; });
+}
+LUZ_INLINE bool is_transmissive(const BsdfComponent& c) {
+  return visit(c, [](const auto& m) { return std::decay_t<decltype(m)>::kTransmission; });
 }
 
 // The tagged BSDF: one component (the base class: `type`, `diffuse`,
@@ -270,14 +270,13 @@ struct Bsdf : BsdfComponent {
 
   // Over both sides (the integrator asks without a direction).
   LUZ_INLINE bool delta_only() const {
-    return flags(*this).delta_only && (!blend || flags(second).delta_only) && (!has_back || flags(back).delta_only);
+    return is_delta_only(*this) && (!blend || is_delta_only(second)) && (!has_back || is_delta_only(back));
   }
   LUZ_INLINE bool has_delta() const {
-    return flags(*this).has_delta || (blend && flags(second).has_delta) || (has_back && flags(back).has_delta);
+    return has_delta_lobe(*this) || (blend && has_delta_lobe(second)) || (has_back && has_delta_lobe(back));
   }
   LUZ_INLINE bool has_transmission() const {
-    return flags(*this).transmission || (blend && flags(second).transmission) ||
-           (has_back && flags(back).transmission);
+    return is_transmissive(*this) || (blend && is_transmissive(second)) || (has_back && is_transmissive(back));
   }
 
   LUZ_INLINE static Bsdf make_diffuse(Color r, bool two_sided = false) {
