@@ -22,6 +22,7 @@
 namespace luz {
 
 struct BlinnPhongBsdf {
+  static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
   Param diffuse_reflectance, specular_reflectance;
   ScalarParam exponent;
 

@@ -1,5 +1,15 @@
-// BSDFs: small tagged structs, dispatched by a switch (no virtual calls), so
-// the same code runs on the CPU and in CUDA kernels.
+// BSDFs: small structs, one model per file, in a tagged union dispatched by
+// one `visit` over the type enum (no virtual calls), so the same code runs on
+// the CPU and in CUDA kernels. A model is a plain struct with
+//   static constexpr bool kDeltaOnly;     // only delta lobes: f() and pdf() are 0 everywhere
+//   static constexpr bool kHasDelta;      // some lobe is a delta (kDeltaOnly implies it)
+//   static constexpr bool kTransmission;  // a lobe through the surface: the model
+//                                         // answers wo on either side itself
+//   Color f(Vec3 wo, Vec3 wi) const;      // + TransportMode for kTransmission models
+//   float pdf(Vec3 wo, Vec3 wi) const;
+//   BsdfSample sample(Vec3 wo, float u1, Vec2 u2) const;  // + TransportMode, as f
+// The transport mode matters only for refraction (common.h), so only the
+// transmissive models take it.
 //
 // Conventions: directions are unit vectors in the local shading frame (normal
 // +z), both pointing away from the surface. `wo` points toward the viewer
@@ -7,10 +17,14 @@
 // sampled continuation). f() is the BSDF value itself, without the cosine.
 #pragma once
 
+#include <type_traits>
+
 #include "luz/bsdf/blinnphong.h"
 #include "luz/bsdf/common.h"
 #include "luz/bsdf/conductor.h"
 #include "luz/bsdf/dielectric.h"
+#include "luz/bsdf/diffuse.h"
+#include "luz/bsdf/phong.h"
 #include "luz/bsdf/plastic.h"
 #include "luz/bsdf/roughplastic.h"
 #include "luz/bsdf/ward.h"
@@ -20,7 +34,7 @@
 // Bsdf's general case (every model but plain Lambert) stays out of line on
 // the CPU: inlined into the integrator, the dispatch over all models bloats
 // the path loop (measured: the Cornell box 4% slower once rough plastic joined
-// the switch, other models unchanged or faster). On the GPU it is inlined.
+// the dispatch, other models unchanged or faster). On the GPU it is inlined.
 #define LUZ_BSDF_GENERAL LUZ_CPU_NOINLINE
 
 namespace luz {
@@ -36,85 +50,12 @@ enum class BsdfType : uint32_t {
   SmoothPlastic,
   BlinnPhong,
   Ward,
-  RoughPlastic,
+  RoughPlastic,  // the last: kBsdfTypeCount follows it
 };
-
-// Lambertian reflector: f = ρ/π.
-struct DiffuseBsdf {
-  Color reflectance;
-
-  LUZ_INLINE Color f(Vec3, Vec3) const { return reflectance * kInvPi; }
-  LUZ_INLINE float pdf(Vec3, Vec3 wi) const { return cosine_hemisphere_pdf(wi); }
-  LUZ_INLINE BsdfSample sample(Vec3, float, Vec2 u) const {
-    BsdfSample s;
-    s.wi = square_to_cosine_hemisphere(u);
-    s.pdf = cosine_hemisphere_pdf(s.wi);
-    s.valid = s.pdf > 0.f;
-    s.weight = reflectance;
-    return s;
-  }
-};
-
-// The seed's modified Phong (Lewis 1994; Lafortune & Willems 1994), eq. (2.10):
-//   f = k_d/π + k_s (n+2)/(2π) cos^n α,
-// α the angle between wi and the mirror direction of wo. Energy-conserving
-// when k_d + k_s ≤ 1 (checked at load time).
-//
-// Sampling as the seed's §2.5.1: one uniform number picks the specular lobe
-// with probability p_s, the diffuse lobe with p_d, and absorption otherwise.
-// The seed uses p_s = k_s, p_d = k_d; for RGB we use the largest channel of
-// each (scaled down if p_s + p_d > 1), which keeps the weights ≤ 1 where k is
-// grey. Diffuse: cosine-weighted hemisphere (correct disk warp). Specular:
-// cosine-power lobe around the mirror direction; a direction below the
-// horizon is a failed sample. pdf() is the density of the whole mixture (a
-// sub-probability density: it integrates to the chance that sample() returns
-// a direction), which is what multiple importance sampling needs.
-struct PhongBsdf {
-  Color kd, ks;
-  float exponent = 1.f;
-
-  LUZ_INLINE void lobe_probabilities(float& pd, float& ps) const {
-    pd = max_component(kd);
-    ps = max_component(ks);
-    float sum = pd + ps;
-    if (sum > 1.f) {
-      pd /= sum;
-      ps /= sum;
-    }
-  }
-  LUZ_INLINE Color f(Vec3 wo, Vec3 wi) const {
-    Vec3 r = {-wo.x, -wo.y, wo.z};
-    float c = dot(wi, r);
-    Color v = kd * kInvPi;
-    if (c > 0.f) v += ks * ((exponent + 2.f) * kInv2Pi * powf(c, exponent));
-    return v;
-  }
-  LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
-    if (wi.z <= 0.f) return 0.f;
-    float pd, ps;
-    lobe_probabilities(pd, ps);
-    Vec3 r = {-wo.x, -wo.y, wo.z};
-    return pd * cosine_hemisphere_pdf(wi) + ps * cosine_power_pdf(dot(wi, r), exponent);
-  }
-  LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2) const {
-    BsdfSample s;
-    float pd, ps;
-    lobe_probabilities(pd, ps);
-    if (u1 < ps) {
-      Frame mirror = Frame::from_normal({-wo.x, -wo.y, wo.z});
-      s.wi = mirror.to_world(square_to_cosine_power(u2, exponent));
-    } else if (u1 < ps + pd) {
-      s.wi = square_to_cosine_hemisphere(u2);
-    } else {
-      return s;  // absorbed
-    }
-    return finish_reflection_sample(*this, wo, s);
-  }
-};
+constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::RoughPlastic) + 1;
 
 // One BSDF model: a tag and the model's parameters in a union (every model
-// is a small trivially copyable struct). f/pdf/sample here see wo exactly as
-// the Bsdf wrapper passes it (see Bsdf::orient).
+// is a small trivially copyable struct).
 struct BsdfComponent {
   BsdfType type = BsdfType::Diffuse;
   union {
@@ -134,66 +75,37 @@ struct BsdfComponent {
   // The models' members have default initialisers, so the union needs a
   // constructor saying which one is live: a diffuse grey 0 until set.
   LUZ_INLINE BsdfComponent() : diffuse() {}
-
-  // Models with a lobe through the surface handle both sides of it
-  // themselves; the others reflect only and see wo in the upper hemisphere.
-  LUZ_INLINE bool transmissive() const {
-    return type == BsdfType::SmoothDielectric || type == BsdfType::RoughDielectric ||
-           type == BsdfType::ThinDielectric;
-  }
-  // Only delta lobes: f() and pdf() are zero everywhere (no light sampling).
-  LUZ_INLINE bool delta_only() const {
-    return type == BsdfType::SmoothConductor || type == BsdfType::SmoothDielectric ||
-           type == BsdfType::ThinDielectric;
-  }
-  LUZ_INLINE bool has_delta() const { return delta_only() || type == BsdfType::SmoothPlastic; }
-
-  LUZ_INLINE Color f(Vec3 wo, Vec3 wi, TransportMode mode) const {
-    switch (type) {
-      case BsdfType::Phong: return phong.f(wo, wi);
-      case BsdfType::SmoothConductor: return smooth_conductor.f(wo, wi);
-      case BsdfType::RoughConductor: return rough_conductor.f(wo, wi);
-      case BsdfType::SmoothDielectric: return smooth_dielectric.f(wo, wi, mode);
-      case BsdfType::RoughDielectric: return rough_dielectric.f(wo, wi, mode);
-      case BsdfType::ThinDielectric: return thin_dielectric.f(wo, wi, mode);
-      case BsdfType::SmoothPlastic: return smooth_plastic.f(wo, wi);
-      case BsdfType::BlinnPhong: return blinn_phong.f(wo, wi);
-      case BsdfType::Ward: return ward.f(wo, wi);
-      case BsdfType::RoughPlastic: return rough_plastic.f(wo, wi);
-      default: return diffuse.f(wo, wi);
-    }
-  }
-  LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
-    switch (type) {
-      case BsdfType::Phong: return phong.pdf(wo, wi);
-      case BsdfType::SmoothConductor: return smooth_conductor.pdf(wo, wi);
-      case BsdfType::RoughConductor: return rough_conductor.pdf(wo, wi);
-      case BsdfType::SmoothDielectric: return smooth_dielectric.pdf(wo, wi);
-      case BsdfType::RoughDielectric: return rough_dielectric.pdf(wo, wi);
-      case BsdfType::ThinDielectric: return thin_dielectric.pdf(wo, wi);
-      case BsdfType::SmoothPlastic: return smooth_plastic.pdf(wo, wi);
-      case BsdfType::BlinnPhong: return blinn_phong.pdf(wo, wi);
-      case BsdfType::Ward: return ward.pdf(wo, wi);
-      case BsdfType::RoughPlastic: return rough_plastic.pdf(wo, wi);
-      default: return diffuse.pdf(wo, wi);
-    }
-  }
-  LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2, TransportMode mode) const {
-    switch (type) {
-      case BsdfType::Phong: return phong.sample(wo, u1, u2);
-      case BsdfType::SmoothConductor: return smooth_conductor.sample(wo, u1, u2);
-      case BsdfType::RoughConductor: return rough_conductor.sample(wo, u1, u2);
-      case BsdfType::SmoothDielectric: return smooth_dielectric.sample(wo, u1, u2, mode);
-      case BsdfType::RoughDielectric: return rough_dielectric.sample(wo, u1, u2, mode);
-      case BsdfType::ThinDielectric: return thin_dielectric.sample(wo, u1, u2, mode);
-      case BsdfType::SmoothPlastic: return smooth_plastic.sample(wo, u1, u2);
-      case BsdfType::BlinnPhong: return blinn_phong.sample(wo, u1, u2);
-      case BsdfType::Ward: return ward.sample(wo, u1, u2);
-      case BsdfType::RoughPlastic: return rough_plastic.sample(wo, u1, u2);
-      default: return diffuse.sample(wo, u1, u2);
-    }
-  }
 };
+static_assert(std::is_trivially_copyable_v<BsdfComponent>, "BSDFs are copied to the GPU as bytes");
+
+// Calls f with the component's model.
+template <class F>
+LUZ_FORCE_INLINE decltype(auto) visit(const BsdfComponent& c, F&& f) {
+  switch (c.type) {
+    case BsdfType::Diffuse: return f(c.diffuse);
+    case BsdfType::Phong: return f(c.phong);
+    case BsdfType::SmoothConductor: return f(c.smooth_conductor);
+    case BsdfType::RoughConductor: return f(c.rough_conductor);
+    case BsdfType::SmoothDielectric: return f(c.smooth_dielectric);
+    case BsdfType::RoughDielectric: return f(c.rough_dielectric);
+    case BsdfType::ThinDielectric: return f(c.thin_dielectric);
+    case BsdfType::SmoothPlastic: return f(c.smooth_plastic);
+    case BsdfType::BlinnPhong: return f(c.blinn_phong);
+    case BsdfType::Ward: return f(c.ward);
+    default: return f(c.rough_plastic);
+  }
+}
+
+// The flags of the component's model.
+LUZ_INLINE bool is_delta_only(const BsdfComponent& c) {
+  return visit(c, [](const auto& m) { return std::decay_t<decltype(m)>::kDeltaOnly; });
+}
+LUZ_INLINE bool has_delta_lobe(const BsdfComponent& c) {
+  return visit(c, [](const auto& m) { return std::decay_t<decltype(m)>::kHasDelta; });
+}
+LUZ_INLINE bool is_transmissive(const BsdfComponent& c) {
+  return visit(c, [](const auto& m) { return std::decay_t<decltype(m)>::kTransmission; });
+}
 
 // The tagged BSDF: one component (the base class: `type`, `diffuse`,
 // `phong`, ... name it), or a blend of two (Mitsuba's `blendbsdf`):
@@ -251,35 +163,47 @@ struct Bsdf : BsdfComponent {
     return wo.z != 0.f;
   }
 
-  LUZ_INLINE Color component_f(const BsdfComponent& c, Vec3 wo, Vec3 wi, TransportMode mode) const {
-    if (c.transmissive()) return c.f(wo, wi, mode);
+  // Brings wo and wi to the side a reflection-only model sees (orient);
+  // false where f and pdf are 0: a side without surface, or wi across it.
+  LUZ_INLINE bool reflection_side(Vec3& wo, Vec3& wi) const {
     float flip;
-    if (!orient(wo, flip)) return {};
+    if (!orient(wo, flip)) return false;
     wi.z *= flip;
-    if (wi.z <= 0.f) return {};
-    return c.f(wo, wi, mode);
+    return !(wi.z <= 0.f);
+  }
+
+  // A component's f, pdf and sample: transmissive models see wo as it is,
+  // the others on the side orient() gives.
+  LUZ_INLINE Color component_f(const BsdfComponent& c, Vec3 wo, Vec3 wi, TransportMode mode) const {
+    return visit(c, [&](const auto& m) {
+      if constexpr (std::decay_t<decltype(m)>::kTransmission) return m.f(wo, wi, mode);
+      else return reflection_side(wo, wi) ? m.f(wo, wi) : Color{};
+    });
   }
   LUZ_INLINE float component_pdf(const BsdfComponent& c, Vec3 wo, Vec3 wi) const {
-    if (c.transmissive()) return c.pdf(wo, wi);
-    float flip;
-    if (!orient(wo, flip)) return 0.f;
-    wi.z *= flip;
-    if (wi.z <= 0.f) return 0.f;
-    return c.pdf(wo, wi);
+    return visit(c, [&](const auto& m) {
+      if constexpr (std::decay_t<decltype(m)>::kTransmission) return m.pdf(wo, wi);
+      else return reflection_side(wo, wi) ? m.pdf(wo, wi) : 0.f;
+    });
   }
   LUZ_INLINE BsdfSample component_sample(const BsdfComponent& c, Vec3 wo, float u1, Vec2 u2,
                                          TransportMode mode) const {
-    if (c.transmissive()) return c.sample(wo, u1, u2, mode);
-    float flip;
-    if (!orient(wo, flip)) return {};
-    BsdfSample s = c.sample(wo, u1, u2, mode);
-    s.wi.z *= flip;
-    return s;
+    return visit(c, [&](const auto& m) {
+      if constexpr (std::decay_t<decltype(m)>::kTransmission) {
+        return m.sample(wo, u1, u2, mode);
+      } else {
+        float flip;
+        if (!orient(wo, flip)) return BsdfSample{};
+        BsdfSample s = m.sample(wo, u1, u2);
+        s.wi.z *= flip;
+        return s;
+      }
+    });
   }
 
   // The Lambertian case is the common one (every Cornell box wall): it takes
   // an inlined path, not the dispatch through every model (measured: the
-  // generic switch made the Cornell benchmark 13% slower).
+  // generic dispatch made the Cornell benchmark 13% slower).
   LUZ_INLINE bool plain_diffuse() const { return type == BsdfType::Diffuse && !blend && !has_back; }
 
   // f, pdf and sample of a plain_diffuse() BSDF (the integrator, having
@@ -346,13 +270,13 @@ struct Bsdf : BsdfComponent {
 
   // Over both sides (the integrator asks without a direction).
   LUZ_INLINE bool delta_only() const {
-    return BsdfComponent::delta_only() && (!blend || second.delta_only()) && (!has_back || back.delta_only());
+    return is_delta_only(*this) && (!blend || is_delta_only(second)) && (!has_back || is_delta_only(back));
   }
   LUZ_INLINE bool has_delta() const {
-    return BsdfComponent::has_delta() || (blend && second.has_delta()) || (has_back && back.has_delta());
+    return has_delta_lobe(*this) || (blend && has_delta_lobe(second)) || (has_back && has_delta_lobe(back));
   }
   LUZ_INLINE bool has_transmission() const {
-    return transmissive() || (blend && second.transmissive()) || (has_back && back.transmissive());
+    return is_transmissive(*this) || (blend && is_transmissive(second)) || (has_back && is_transmissive(back));
   }
 
   LUZ_INLINE static Bsdf make_diffuse(Color r, bool two_sided = false) {

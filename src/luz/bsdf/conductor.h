@@ -25,6 +25,7 @@
 namespace luz {
 
 struct SmoothConductorBsdf {
+  static constexpr bool kDeltaOnly = true, kHasDelta = true, kTransmission = false;
   Param eta, k, specular_reflectance;
 
   LUZ_INLINE Color f(Vec3, Vec3) const { return {}; }
@@ -42,6 +43,7 @@ struct SmoothConductorBsdf {
 };
 
 struct RoughConductorBsdf {
+  static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
   MicrofacetType distribution = MicrofacetType::Beckmann;
   ScalarParam alpha_u, alpha_v;
   Param eta, k, specular_reflectance;

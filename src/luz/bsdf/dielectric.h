@@ -23,6 +23,7 @@
 namespace luz {
 
 struct SmoothDielectricBsdf {
+  static constexpr bool kDeltaOnly = true, kHasDelta = true, kTransmission = true;
   float eta = 1.5046f;  // int_ior / ext_ior
   Param specular_reflectance, specular_transmittance;
 
@@ -56,6 +57,7 @@ struct SmoothDielectricBsdf {
 // (geometric series), T' = 1 - R'. Transmission goes straight through (wi =
 // -wo, no net refraction, eta = 1, no radiance scaling).
 struct ThinDielectricBsdf {
+  static constexpr bool kDeltaOnly = true, kHasDelta = true, kTransmission = true;
   float eta = 1.5046f;
   Param specular_reflectance, specular_transmittance;
 
@@ -105,6 +107,7 @@ struct ThinDielectricBsdf {
 // A reflected direction on the far side, or a refracted one on wo's side, is
 // a failed sample.
 struct RoughDielectricBsdf {
+  static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = true;
   MicrofacetType distribution = MicrofacetType::Beckmann;
   ScalarParam alpha_u, alpha_v;
   float eta = 1.5046f;

@@ -27,6 +27,7 @@
 namespace luz {
 
 struct SmoothPlasticBsdf {
+  static constexpr bool kDeltaOnly = false, kHasDelta = true, kTransmission = false;
   Param diffuse_reflectance, specular_reflectance;
   float eta = 1.49f / 1.000277f;  // Mitsuba's defaults: polypropylene in air
   float fdr_int = 0.f;            // set by make()

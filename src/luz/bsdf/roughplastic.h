@@ -64,6 +64,7 @@ namespace luz {
 double rough_coat_internal_reflectance(MicrofacetType t, float alpha, float eta);
 
 struct RoughPlasticBsdf {
+  static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
   static constexpr int kTableSize = 64;
 
   MicrofacetType distribution = MicrofacetType::Beckmann;

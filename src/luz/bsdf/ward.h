@@ -31,6 +31,7 @@ namespace luz {
 enum class WardVariant : uint32_t { Ward, WardDuer, Balanced };
 
 struct WardBsdf {
+  static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
   WardVariant variant = WardVariant::Balanced;
   Param diffuse_reflectance, specular_reflectance;
   ScalarParam alpha_u, alpha_v;
