@@ -19,7 +19,7 @@ LUZ_INLINE Vec2 cos_sin_quarter(float x) {
 // Shirley & Chiu 1997 concentric map: uniform on the unit disk, low distortion.
 // (The seed's x = r1 cos 2πr2, y = r1 sin 2πr2 is not uniform: the radius must be
 // sqrt(r1) or this map. tests/test_warp.cpp shows the difference.)
-LUZ_INLINE Vec2 square_to_uniform_disk(Vec2 u) {
+LUZ_FORCE_INLINE Vec2 square_to_uniform_disk(Vec2 u) {
   float a = 2.f * u.x - 1.f, b = 2.f * u.y - 1.f;
   if (a == 0.f && b == 0.f) return {0.f, 0.f};
   // φ = (π/4)(b/a), or π/2 - (π/4)(a/b) (then cos and sin swap places).
@@ -34,7 +34,7 @@ LUZ_INLINE Vec2 square_to_uniform_disk(Vec2 u) {
 LUZ_INLINE float uniform_disk_pdf(Vec2 p) { return (p.x * p.x + p.y * p.y <= 1.f) ? kInvPi : 0.f; }
 
 // Cosine-weighted hemisphere by lifting the uniform disk (Malley's method).
-LUZ_INLINE Vec3 square_to_cosine_hemisphere(Vec2 u) {
+LUZ_FORCE_INLINE Vec3 square_to_cosine_hemisphere(Vec2 u) {
   Vec2 d = square_to_uniform_disk(u);
   float z = safe_sqrt(1.f - d.x * d.x - d.y * d.y);
   return {d.x, d.y, z};
