@@ -84,9 +84,9 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
   if (device == "auto" && !use_cuda)
     std::fprintf(stderr, "luz: warning: --device auto: no usable GPU (%s); rendering on the CPU\n", no_gpu.c_str());
   luz::RenderStats stats;
-  std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu lights, on %s\n", scene_path.c_str(),
+  std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu light%s, on %s\n", scene_path.c_str(),
                scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(), scene.spheres.size(),
-               scene.lights.size(), use_cuda ? luz::cuda_device_name().c_str() : "the CPU");
+               scene.lights.size(), scene.lights.size() == 1 ? "" : "s", use_cuda ? luz::cuda_device_name().c_str() : "the CPU");
   if (scene.light_cdf.empty())
     std::fprintf(stderr, "luz: warning: %s: the scene has no light that emits, so the image will be black\n",
                  scene_path.c_str());
