@@ -405,19 +405,22 @@ TEST(EmitterSampling, BackFacesGiveNothing) {
   }
 }
 
-// Light choice: PowerLightSampler::select is the first k with u < cdf[k] (checked
-// against std::upper_bound, zero-power entries included: never chosen), and
-// sample() rescales u into [0,1) within the chosen interval (and leaves it
-// alone when there is one light).
+// Light choice: cdf_find over the stored CDF (a 0 in front) is the first k
+// with u < cdf[k] (checked against std::upper_bound, zero-power entries
+// included: never chosen), and PowerLightSampler::sample() picks that light
+// and rescales u into [0,1) within the chosen interval (and leaves it alone
+// when there is one light).
 TEST(EmitterSampling, SelectionIsTheCdfInverse) {
   for (std::vector<float> cdf : {std::vector<float>{1.f}, {0.5f, 1.f}, {0.f, 0.25f, 0.25f, 0.7f, 1.f},
                                  {0.1f, 0.2f, 0.3f, 0.4f, 0.5f, 0.6f, 0.7f, 0.8f, 0.9f, 1.f, 1.f}}) {
     std::vector<float> pmf(cdf.size());
     for (size_t k = 0; k < cdf.size(); ++k) pmf[k] = cdf[k] - (k > 0 ? cdf[k - 1] : 0.f);
-    PowerLightSampler v{cdf.data(), pmf.data(), uint32_t(cdf.size())};
+    std::vector<float> stored{0.f};
+    stored.insert(stored.end(), cdf.begin(), cdf.end());
+    PowerLightSampler v{stored.data(), pmf.data(), uint32_t(cdf.size())};
     for (int k = 0; k < 4096; ++k) {
       float u = (k + 0.5f) / 4096.f;
-      uint32_t e = v.select(u);
+      uint32_t e = cdf_find(stored.data(), uint32_t(cdf.size()), u);
       EXPECT_EQ(e, uint32_t(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin())) << u;
       float lo = e > 0 ? cdf[e - 1] : 0.f;
       EXPECT_GT(cdf[e], lo) << "an empty interval was chosen";

@@ -835,6 +835,15 @@ class MitsubaParser {
     int32_t index = -1;  // in scene_.textures; -1 when only checked
     Color mean;          // the average linear colour
   };
+  // A file named relative to the scene file; it must be a regular file.
+  fs::path scene_file(pugi::xml_node n, const std::string& file, const char* what) const {
+    const fs::path full = fs::path(path_).parent_path() / file;
+    std::error_code ec;
+    if (!fs::is_regular_file(full, ec))
+      error(n, std::string("cannot open ") + what + " '" + full.string() +
+                   "': " + (fs::exists(full, ec) ? "not a regular file" : "no such file"));
+    return full;
+  }
   // A <texture type="bitmap">: filename (relative to the scene file),
   // filter_type, wrap_mode, raw (Mitsuba 3) or gamma (Mitsuba 0.5), uscale,
   // vscale, uoffset, voffset. With load = false the file is only checked to
@@ -864,11 +873,7 @@ class MitsubaParser {
     desc.scale = {float(p.get_float("uscale", 1.0)), float(p.get_float("vscale", 1.0))};
     desc.shift = {float(p.get_float("uoffset", 0.0)), float(p.get_float("voffset", 0.0))};
     p.check_all_used();
-    fs::path full = fs::path(path_).parent_path() / file;
-    std::error_code ec;
-    if (!fs::is_regular_file(full, ec))
-      error(t, "cannot open bitmap '" + full.string() +
-                   "': " + (fs::exists(full, ec) ? "not a regular file" : "no such file"));
+    const fs::path full = scene_file(t, file, "bitmap");
     Bitmap out;
     if (!load) return out;
     Image8 img;
@@ -999,10 +1004,7 @@ class MitsubaParser {
     if (!(scale >= 0.0) || !std::isfinite(scale)) error(n, "scale must be finite and not negative");
     for (const Light& l : scene_.lights)
       if (is_environment(l)) error(n, "only one environment emitter is supported");
-    const fs::path full = fs::path(path_).parent_path() / file;
-    std::error_code ec;
-    if (!fs::is_regular_file(full, ec))
-      error(n, "cannot open envmap '" + full.string() + "': " + (fs::exists(full, ec) ? "not a regular file" : "no such file"));
+    const fs::path full = scene_file(n, file, "envmap");
     Image img;
     try {
       img = read_image_linear(full.string());
@@ -1121,13 +1123,7 @@ class MitsubaParser {
       // Mitsuba flips OBJ's v by default (read_obj does); flip_tex_coords false keeps vt as written.
       const bool flip_uv = p.get_bool("flip_tex_coords", true);
       p.check_all_used();
-      fs::path full = fs::path(path_).parent_path() / file;
-      std::error_code ec;
-      if (!fs::is_regular_file(full, ec)) {
-        bool exists = fs::exists(full, ec);
-        error(n, "cannot open OBJ file '" + full.string() + "': " +
-                     (exists ? "not a regular file" : "no such file"));
-      }
+      const fs::path full = scene_file(n, file, "OBJ file");
       ObjMesh mesh = read_obj(full.string(), false, textured);
       pos = std::move(mesh.positions);
       if (!face_normals) nrm = std::move(mesh.normals);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "luz/light/light.h"
+#include "luz/sampling/distribution.h"
 
 namespace luz {
 
@@ -14,25 +15,11 @@ struct SampledLight {
 };
 
 struct PowerLightSampler {
-  // cdf[k] = P(choose one of 0..k); pmf_[k] = P(choose k). n = 0: no light
-  // has power, nothing is sampled.
+  // cdf: n + 1 entries from 0 to 1 (distribution.h); pmfs[k] = P(choose k).
+  // n = 0: no light has power, nothing is sampled.
   const float* cdf = nullptr;
   const float* pmfs = nullptr;
   uint32_t n = 0;
-
-  // Index of the light selected by u: the first k with u < cdf[k], by a
-  // branch-free binary search (the answer stays in [base, base + len); the
-  // loop runs ceil(log2 n) times whatever u is, and the comparison, a coin
-  // flip for the branch predictor, becomes a conditional move).
-  LUZ_INLINE uint32_t select(float u) const {
-    uint32_t base = 0, len = n;
-    while (len > 1) {
-      uint32_t half = len / 2;
-      base += cdf[base + half - 1] <= u ? half : 0u;
-      len -= half;
-    }
-    return base;
-  }
 
   // Sample reuse (as Mitsuba 3's DiscreteDistribution::sample_reuse): selects
   // a light by u and rescales u to [0,1) within the chosen interval, so one
@@ -40,9 +27,8 @@ struct PowerLightSampler {
   // u is left as it is.
   LUZ_INLINE SampledLight sample(const LightSampleContext&, float& u) const {
     if (n == 1) return {0, pmfs[0]};
-    uint32_t e = select(u);
-    float lo = e > 0 ? cdf[e - 1] : 0.f, width = cdf[e] - lo;
-    u = width > 0.f ? min(max((u - lo) / width, 0.f), kOneMinusEpsilon) : 0.f;
+    const uint32_t e = cdf_find(cdf, n, u);
+    u = cdf_remap(cdf, e, u);
     return {e, pmfs[e]};
   }
 

@@ -60,6 +60,19 @@ struct Distribution2D {
   }
 };
 
+// Appends the CDF of n non-negative weights summing to `sum` (n + 1 entries,
+// from 0 to exactly 1); each zero weight leaves an empty step, which
+// cdf_find skips. sum = 0: a uniform CDF.
+inline void append_cdf(const double* weights, uint32_t n, double sum, std::vector<float>& out) {
+  double acc = 0.0;
+  out.push_back(0.f);
+  for (uint32_t k = 0; k < n; ++k) {
+    acc += weights[k];
+    out.push_back(sum > 0.0 ? float(acc / sum) : float(double(k + 1) / n));
+  }
+  out.back() = 1.f;
+}
+
 // Appends a distribution over `w` (ny rows of nx weights, non-negative and
 // finite) to data. All-zero weights give an all-zero density (and uniform
 // CDFs, so that sampling still returns points in range).
@@ -76,21 +89,10 @@ inline Distribution2D build_distribution2d(const std::vector<double>& w, uint32_
   }
   d.density = uint32_t(data.size());
   for (size_t k = 0; k < size_t(nx) * ny; ++k) data.push_back(total > 0.0 ? float(w[k] / total) : 0.f);
-  // A CDF whose last entry is exactly 1, and whose every step is empty where
-  // the weight is 0 (so that the search skips such cells).
-  auto append_cdf = [&data](const double* weights, uint32_t n, size_t stride, double sum) {
-    double acc = 0.0;
-    data.push_back(0.f);
-    for (uint32_t k = 0; k < n; ++k) {
-      acc += weights[k * stride];
-      data.push_back(sum > 0.0 ? float(acc / sum) : float(double(k + 1) / n));
-    }
-    data.back() = 1.f;
-  };
   d.marginal = uint32_t(data.size());
-  append_cdf(row_sum.data(), ny, 1, total);
+  append_cdf(row_sum.data(), ny, total, data);
   d.conditional = uint32_t(data.size());
-  for (uint32_t j = 0; j < ny; ++j) append_cdf(w.data() + size_t(j) * nx, nx, 1, row_sum[j]);
+  for (uint32_t j = 0; j < ny; ++j) append_cdf(w.data() + size_t(j) * nx, nx, row_sum[j], data);
   return d;
 }
 

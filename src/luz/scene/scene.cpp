@@ -252,16 +252,8 @@ void Scene::compile() {
   light_cdf.clear();
   light_pmf.assign(lights.size(), 0.f);
   if (total > 0) {
-    light_cdf.assign(lights.size(), 1.f);
-    double acc = 0;
-    for (size_t e = 0; e < lights.size(); ++e) {
-      acc += power[e];
-      light_cdf[e] = float(acc / total);
-      light_pmf[e] = float(power[e] / total);
-    }
-    if (!lights.empty()) light_cdf.back() = 1.f;
-    // A zero-power light must never be selected: its CDF step is empty and
-    // binary search skips it; that holds even for the last one.
+    append_cdf(power.data(), uint32_t(power.size()), total, light_cdf);
+    for (size_t e = 0; e < lights.size(); ++e) light_pmf[e] = float(power[e] / total);
   }
 }
 
