@@ -83,7 +83,7 @@ Scene cornell(int res, uint32_t spp, uint64_t seed) {
 Scene cornell_with_sphere(int res, uint32_t spp, uint64_t seed) {
   Scene s = cornell(res, spp, seed);
   Vec3 c = (s.bounds_min + s.bounds_max) * 0.5f;
-  uint32_t m = s.add_material(s.materials[0]);
+  uint32_t m = s.add_material(s.materials[0].bsdf);
   s.add_sphere(c, 0.15f * (s.bounds_max.x - s.bounds_min.x), m, nullptr, false);
   s.normals.clear();
   s.compile();
@@ -91,17 +91,34 @@ Scene cornell_with_sphere(int res, uint32_t spp, uint64_t seed) {
   return s;
 }
 
-// The Cornell box with every Lambertian material textured: a 5×3 sRGB
-// texture of distinct colours, texture coordinates an affine function of the
-// positions (wrapping around several times across the box).
+// The Cornell box with every Lambertian material textured, in turn by a 5×3
+// sRGB bitmap (repeat), the same texels as a float bitmap (mirror), a 4×2
+// linear bitmap (clamp, nearest) and a checkerboard, each through its own
+// to_uv; texture coordinates an affine function of the positions (wrapping
+// around several times across the box).
 Scene textured_cornell(int res, uint32_t spp, uint64_t seed) {
   Scene s = cornell(res, spp, seed);
   std::vector<uint32_t> img;
-  for (uint32_t k = 0; k < 15; ++k) img.push_back(pack_rgba8(40 + 13 * k, 200 - 9 * k, (37 * k) % 256));
-  TextureDesc d;
-  d.width = 5;
-  d.height = 3;
-  const int32_t t = int32_t(s.add_texture(d, img));
+  std::vector<float> imgf;
+  for (uint32_t k = 0; k < 15; ++k) {
+    img.push_back(pack_rgba8(40 + 13 * k, 200 - 9 * k, (37 * k) % 256));
+    imgf.insert(imgf.end(), {(40 + 13 * k) / 255.f, (200 - 9 * k) / 255.f, float((37 * k) % 256) / 255.f});
+  }
+  std::vector<uint32_t> small;
+  for (uint32_t k = 0; k < 8; ++k) small.push_back(pack_rgba8(30 * k, 255 - 30 * k, 128));
+  BitmapTexture b;
+  b.width = 5;
+  b.height = 3;
+  UvTransform rot{0.8f, -0.6f, 0.1f, 0.6f, 0.8f, -0.3f};
+  std::vector<int32_t> tex;
+  tex.push_back(int32_t(s.add_bitmap(b, {}, img)));
+  b.wrap = WrapMode::Mirror;
+  tex.push_back(int32_t(s.add_bitmap(b, rot, imgf)));
+  b.width = 4, b.height = 2, b.wrap = WrapMode::Clamp, b.filter = TextureFilter::Nearest, b.srgb = false;
+  tex.push_back(int32_t(s.add_bitmap(b, {1.5f, 0.f, -0.2f, 0.f, 1.2f, -0.1f}, small)));
+  Texture checker{CheckerboardTexture{{0.7f, 0.2f, 0.1f}, {0.1f, 0.3f, 0.6f}}};
+  checker.to_uv = {3.f, 0.f, 0.f, 0.f, 3.f, 0.f};
+  tex.push_back(int32_t(s.add_texture(checker)));
   s.uvs.resize(s.positions.size());
   const Vec3 ext = s.bounds_max - s.bounds_min;
   for (size_t i = 0; i < s.positions.size(); ++i) {
@@ -109,9 +126,13 @@ Scene textured_cornell(int res, uint32_t spp, uint64_t seed) {
     s.uvs[i] = {2.3f * p.x + 0.4f * p.z, 1.7f * p.y - 0.6f * p.z};
   }
   size_t textured = 0;
-  for (Bsdf& b : s.materials)
-    if (b.type == BsdfType::Diffuse) b.texture = t, ++textured;
-  EXPECT_GT(textured, 0u);
+  for (Material& m : s.materials)
+    if (m.bsdf.type == BsdfType::Diffuse) {
+      m.first_binding = uint32_t(s.texture_bindings.size());
+      m.num_bindings = 1;
+      s.texture_bindings.push_back({tex[textured++ % tex.size()], BsdfPart::Front, BsdfParam::Reflectance});
+    }
+  EXPECT_GE(textured, tex.size());
   return s;
 }
 

@@ -267,27 +267,27 @@ TEST_F(Mitsuba, BsdfsAndMitsubaDefaults) {
       "<shape type=\"sphere\"><ref id=\"tr\"/></shape>\n"
       "<shape type=\"sphere\"/>\n"));
   ASSERT_EQ(s.spheres.size(), 5u);
-  const luz::Bsdf& p = s.materials[s.spheres[0].material];
+  const luz::Bsdf& p = s.materials[s.spheres[0].material].bsdf;
   EXPECT_EQ(p.type, luz::BsdfType::Phong);
   EXPECT_FALSE(p.two_sided);
   EXPECT_EQ(p.phong.kd.x, 0.5f);  // Mitsuba 0.6's defaults: 0.5, 0.2, 30
   EXPECT_EQ(p.phong.ks.y, 0.2f);
   EXPECT_EQ(p.phong.exponent, 30.f);
-  const luz::Bsdf& q = s.materials[s.spheres[1].material];
+  const luz::Bsdf& q = s.materials[s.spheres[1].material].bsdf;
   EXPECT_EQ(q.type, luz::BsdfType::Phong);
   EXPECT_EQ(q.phong.kd.z, 0.3f);
   EXPECT_EQ(q.phong.ks.x, 0.4f);
   EXPECT_EQ(q.phong.exponent, 12.f);
-  const luz::Bsdf& t = s.materials[s.spheres[2].material];
+  const luz::Bsdf& t = s.materials[s.spheres[2].material].bsdf;
   EXPECT_EQ(t.type, luz::BsdfType::Diffuse);
   EXPECT_TRUE(t.two_sided);
   EXPECT_EQ(t.diffuse.reflectance.y, 0.7f);
-  const luz::Bsdf& tr = s.materials[s.spheres[3].material];
+  const luz::Bsdf& tr = s.materials[s.spheres[3].material].bsdf;
   EXPECT_EQ(tr.type, luz::BsdfType::Phong);
   EXPECT_TRUE(tr.two_sided);
   EXPECT_EQ(tr.phong.exponent, 12.f);
-  EXPECT_FALSE(s.materials[s.spheres[1].material].two_sided) << "wrapping q must not change q";
-  const luz::Bsdf& d = s.materials[s.spheres[4].material];  // no bsdf: diffuse 0.5, one-sided
+  EXPECT_FALSE(s.materials[s.spheres[1].material].bsdf.two_sided) << "wrapping q must not change q";
+  const luz::Bsdf& d = s.materials[s.spheres[4].material].bsdf;  // no bsdf: diffuse 0.5, one-sided
   EXPECT_EQ(d.type, luz::BsdfType::Diffuse);
   EXPECT_FALSE(d.two_sided);
   EXPECT_EQ(d.diffuse.reflectance.x, 0.5f);
@@ -314,11 +314,11 @@ TEST_F(Mitsuba, DefaultsAndDefines) {
   luz::Scene s = load(text);
   EXPECT_EQ(s.camera.width, 32);
   EXPECT_EQ(s.camera.height, 132);  // substitution inside a value
-  EXPECT_EQ(s.materials[s.spheres[0].material].diffuse.reflectance.y, 0.25f);
+  EXPECT_EQ(s.materials[s.spheres[0].material].bsdf.diffuse.reflectance.y, 0.25f);
   s = load(text, {{"g", "0.75"}, {"res", "8"}});  // -D wins over <default>
   EXPECT_EQ(s.camera.width, 8);
   EXPECT_EQ(s.camera.height, 18);
-  EXPECT_EQ(s.materials[s.spheres[0].material].diffuse.reflectance.y, 0.75f);
+  EXPECT_EQ(s.materials[s.spheres[0].material].bsdf.diffuse.reflectance.y, 0.75f);
   expect_error(text, 0, "-D nope", {{"nope", "1"}});
 }
 

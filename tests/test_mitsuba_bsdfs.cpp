@@ -44,7 +44,7 @@ class MitsubaBsdfs : public TempDirTest {
     luz::Scene s = load("<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n<shape type=\"sphere\">\n" + bsdf +
                         "\n</shape>\n</scene>\n");
     EXPECT_EQ(s.spheres.size(), 1u);
-    return s.materials[s.spheres[0].material];
+    return s.materials[s.spheres[0].material].bsdf;
   }
   // `body` starts on line 3; expects an InputError at `line` containing `problem`.
   void expect_error(const std::string& body, int line, const std::string& problem) {
@@ -74,25 +74,25 @@ TEST_F(MitsubaBsdfs, Conductor) {
   EXPECT_EQ(d.type, BsdfType::SmoothConductor);
   EXPECT_FALSE(d.two_sided);
   EXPECT_TRUE(d.delta_only());
-  expect_color(d.smooth_conductor.eta.value, 0, 0, 0);
-  expect_color(d.smooth_conductor.k.value, 1, 1, 1);
-  expect_color(d.smooth_conductor.specular_reflectance.value, 1, 1, 1);
+  expect_color(d.smooth_conductor.eta, 0, 0, 0);
+  expect_color(d.smooth_conductor.k, 1, 1, 1);
+  expect_color(d.smooth_conductor.specular_reflectance, 1, 1, 1);
 
   Bsdf au = material("<bsdf type=\"conductor\"><string name=\"material\" value=\"Au\"/></bsdf>");
   Color eta, k;
   ASSERT_TRUE(luz::find_conductor_preset("Au", eta, k));
-  expect_color(au.smooth_conductor.eta.value, eta.x, eta.y, eta.z);
-  expect_color(au.smooth_conductor.k.value, k.x, k.y, k.z);
+  expect_color(au.smooth_conductor.eta, eta.x, eta.y, eta.z);
+  expect_color(au.smooth_conductor.k, k.x, k.y, k.z);
 
   Bsdf e = material(
       "<bsdf type=\"conductor\"><rgb name=\"eta\" value=\"0.2, 0.9, 1.1\"/><spectrum name=\"k\" value=\"3\"/>"
       "<rgb name=\"specular_reflectance\" value=\"0.3\"/></bsdf>");
-  expect_color(e.smooth_conductor.eta.value, 0.2f, 0.9f, 1.1f);
-  expect_color(e.smooth_conductor.k.value, 3, 3, 3);
-  expect_color(e.smooth_conductor.specular_reflectance.value, 0.3f, 0.3f, 0.3f);
+  expect_color(e.smooth_conductor.eta, 0.2f, 0.9f, 1.1f);
+  expect_color(e.smooth_conductor.k, 3, 3, 3);
+  expect_color(e.smooth_conductor.specular_reflectance, 0.3f, 0.3f, 0.3f);
   Bsdf f = material("<bsdf type=\"conductor\"><float name=\"eta\" value=\"1.5\"/></bsdf>");
-  expect_color(f.smooth_conductor.eta.value, 1.5f, 1.5f, 1.5f);
-  expect_color(f.smooth_conductor.k.value, 1, 1, 1);  // Mitsuba's default k when eta is given
+  expect_color(f.smooth_conductor.eta, 1.5f, 1.5f, 1.5f);
+  expect_color(f.smooth_conductor.k, 1, 1, 1);  // Mitsuba's default k when eta is given
 
   Bsdf t = material("<bsdf type=\"twosided\"><bsdf type=\"conductor\"/></bsdf>");
   EXPECT_TRUE(t.two_sided);
@@ -103,25 +103,25 @@ TEST_F(MitsubaBsdfs, RoughConductor) {
   Bsdf d = material("<bsdf type=\"roughconductor\"/>");
   EXPECT_EQ(d.type, BsdfType::RoughConductor);
   EXPECT_EQ(d.rough_conductor.distribution, luz::MicrofacetType::Beckmann);  // Mitsuba's default
-  EXPECT_FLOAT_EQ(d.rough_conductor.alpha_u.value, 0.1f);
-  EXPECT_FLOAT_EQ(d.rough_conductor.alpha_v.value, 0.1f);
+  EXPECT_FLOAT_EQ(d.rough_conductor.alpha_u, 0.1f);
+  EXPECT_FLOAT_EQ(d.rough_conductor.alpha_v, 0.1f);
   EXPECT_FALSE(d.has_delta());
 
   Bsdf g = material(
       "<bsdf type=\"roughconductor\"><string name=\"distribution\" value=\"ggx\"/><float name=\"alpha\" value=\"0.3\"/>"
       "<string name=\"material\" value=\"Cu\"/></bsdf>");
   EXPECT_EQ(g.rough_conductor.distribution, luz::MicrofacetType::GGX);
-  EXPECT_FLOAT_EQ(g.rough_conductor.alpha_u.value, 0.3f);
-  EXPECT_FLOAT_EQ(g.rough_conductor.alpha_v.value, 0.3f);
+  EXPECT_FLOAT_EQ(g.rough_conductor.alpha_u, 0.3f);
+  EXPECT_FLOAT_EQ(g.rough_conductor.alpha_v, 0.3f);
   Color eta, k;
   ASSERT_TRUE(luz::find_conductor_preset("Cu", eta, k));
-  expect_color(g.rough_conductor.k.value, k.x, k.y, k.z);
+  expect_color(g.rough_conductor.k, k.x, k.y, k.z);
 
   Bsdf a = material(
       "<bsdf type=\"roughconductor\"><float name=\"alpha_u\" value=\"0.05\"/><float name=\"alpha_v\" value=\"0.4\"/>"
       "<boolean name=\"sample_visible\" value=\"true\"/></bsdf>");
-  EXPECT_FLOAT_EQ(a.rough_conductor.alpha_u.value, 0.05f);
-  EXPECT_FLOAT_EQ(a.rough_conductor.alpha_v.value, 0.4f);
+  EXPECT_FLOAT_EQ(a.rough_conductor.alpha_u, 0.05f);
+  EXPECT_FLOAT_EQ(a.rough_conductor.alpha_v, 0.4f);
 }
 
 TEST_F(MitsubaBsdfs, Dielectrics) {
@@ -140,8 +140,8 @@ TEST_F(MitsubaBsdfs, Dielectrics) {
       "<bsdf type=\"dielectric\"><string name=\"int_ior\" value=\"water\"/><float name=\"ext_ior\" value=\"1\"/>"
       "<rgb name=\"specular_transmittance\" value=\"0.5, 0.6, 0.7\"/></bsdf>");
   EXPECT_FLOAT_EQ(w.smooth_dielectric.eta, water);
-  expect_color(w.smooth_dielectric.specular_transmittance.value, 0.5f, 0.6f, 0.7f);
-  expect_color(w.smooth_dielectric.specular_reflectance.value, 1, 1, 1);
+  expect_color(w.smooth_dielectric.specular_transmittance, 0.5f, 0.6f, 0.7f);
+  expect_color(w.smooth_dielectric.specular_reflectance, 1, 1, 1);
 
   Bsdf t = material("<bsdf type=\"thindielectric\"><float name=\"int_ior\" value=\"1.5\"/></bsdf>");
   EXPECT_EQ(t.type, BsdfType::ThinDielectric);
@@ -153,7 +153,7 @@ TEST_F(MitsubaBsdfs, Dielectrics) {
       "<float name=\"ext_ior\" value=\"1\"/></bsdf>");
   EXPECT_EQ(r.type, BsdfType::RoughDielectric);
   EXPECT_EQ(r.rough_dielectric.distribution, luz::MicrofacetType::GGX);
-  EXPECT_FLOAT_EQ(r.rough_dielectric.alpha_u.value, 0.2f);
+  EXPECT_FLOAT_EQ(r.rough_dielectric.alpha_u, 0.2f);
   EXPECT_FLOAT_EQ(r.rough_dielectric.eta, 1.33f);
   EXPECT_FALSE(r.has_delta());
   EXPECT_TRUE(r.has_transmission());
@@ -162,8 +162,8 @@ TEST_F(MitsubaBsdfs, Dielectrics) {
 TEST_F(MitsubaBsdfs, PlasticWardBlinnPhong) {
   Bsdf p = material("<bsdf type=\"plastic\"><rgb name=\"diffuse_reflectance\" value=\"0.1, 0.2, 0.3\"/></bsdf>");
   EXPECT_EQ(p.type, BsdfType::SmoothPlastic);
-  expect_color(p.smooth_plastic.diffuse_reflectance.value, 0.1f, 0.2f, 0.3f);
-  expect_color(p.smooth_plastic.specular_reflectance.value, 1, 1, 1);
+  expect_color(p.smooth_plastic.diffuse_reflectance, 0.1f, 0.2f, 0.3f);
+  expect_color(p.smooth_plastic.specular_reflectance, 1, 1, 1);
   float pp, air;
   ASSERT_TRUE(luz::find_ior_preset("polypropylene", pp));
   ASSERT_TRUE(luz::find_ior_preset("air", air));
@@ -182,14 +182,14 @@ TEST_F(MitsubaBsdfs, PlasticWardBlinnPhong) {
       "<float name=\"alpha_v\" value=\"0.3\"/><rgb name=\"diffuse_reflectance\" value=\"0.2\"/>"
       "<rgb name=\"specular_reflectance\" value=\"0.5\"/></bsdf>");
   EXPECT_EQ(wo.ward.variant, luz::WardVariant::Ward);
-  EXPECT_FLOAT_EQ(wo.ward.alpha_v.value, 0.3f);
-  expect_color(wo.ward.specular_reflectance.value, 0.5f, 0.5f, 0.5f);
+  EXPECT_FLOAT_EQ(wo.ward.alpha_v, 0.3f);
+  expect_color(wo.ward.specular_reflectance, 0.5f, 0.5f, 0.5f);
 
   Bsdf b = material("<bsdf type=\"blinnphong\"><float name=\"exponent\" value=\"50\"/>"
                     "<rgb name=\"diffuse_reflectance\" value=\"0.3\"/><rgb name=\"specular_reflectance\" value=\"0.6\"/></bsdf>");
   EXPECT_EQ(b.type, BsdfType::BlinnPhong);
-  EXPECT_FLOAT_EQ(b.blinn_phong.exponent.value, 50.f);
-  expect_color(b.blinn_phong.specular_reflectance.value, 0.6f, 0.6f, 0.6f);
+  EXPECT_FLOAT_EQ(b.blinn_phong.exponent, 50.f);
+  expect_color(b.blinn_phong.specular_reflectance, 0.6f, 0.6f, 0.6f);
 }
 
 TEST_F(MitsubaBsdfs, BlendAndTwosided) {
@@ -200,13 +200,13 @@ TEST_F(MitsubaBsdfs, BlendAndTwosided) {
       "<bsdf type=\"twosided\" id=\"mix2\"><ref id=\"mix\"/></bsdf>\n"
       "<shape type=\"sphere\"><ref id=\"mix\"/></shape>\n"
       "<shape type=\"sphere\"><ref id=\"mix2\"/></shape>\n"));
-  const Bsdf& m = s.materials[s.spheres[0].material];
+  const Bsdf& m = s.materials[s.spheres[0].material].bsdf;
   EXPECT_TRUE(m.blend);
   EXPECT_FLOAT_EQ(m.blend_weight, 0.25f);
   EXPECT_EQ(m.type, BsdfType::Diffuse);
   EXPECT_EQ(m.second.type, BsdfType::RoughConductor);
   EXPECT_FALSE(m.two_sided);
-  const Bsdf& m2 = s.materials[s.spheres[1].material];
+  const Bsdf& m2 = s.materials[s.spheres[1].material].bsdf;
   EXPECT_TRUE(m2.blend);
   EXPECT_TRUE(m2.two_sided);
   // A blend of a diffuse and a dielectric is allowed (not inside twosided).
@@ -317,8 +317,8 @@ TEST_F(MitsubaBsdfs, RoughPlastic) {
   ASSERT_TRUE(luz::find_ior_preset("polypropylene", pp));
   ASSERT_TRUE(luz::find_ior_preset("air", air));
   EXPECT_FLOAT_EQ(p.eta, pp / air);
-  expect_color(p.diffuse_reflectance.value, 0.5f, 0.5f, 0.5f);
-  expect_color(p.specular_reflectance.value, 1, 1, 1);
+  expect_color(p.diffuse_reflectance, 0.5f, 0.5f, 0.5f);
+  expect_color(p.specular_reflectance, 1, 1, 1);
   EXPECT_FALSE(p.nonlinear);
   EXPECT_FLOAT_EQ(p.specular_sampling_weight, 1.f / 1.5f);  // mean(ks) / (mean(ks) + mean(ρ))
   EXPECT_GT(p.internal_reflectance, 0.f);
@@ -335,8 +335,8 @@ TEST_F(MitsubaBsdfs, RoughPlastic) {
   EXPECT_EQ(q.distribution, luz::MicrofacetType::GGX);
   EXPECT_FLOAT_EQ(q.alpha, 0.3f);
   EXPECT_FLOAT_EQ(q.eta, bk7 / 1.333f);
-  expect_color(q.diffuse_reflectance.value, 0.1f, 0.2f, 0.3f);
-  expect_color(q.specular_reflectance.value, 0.5f, 0.5f, 0.5f);
+  expect_color(q.diffuse_reflectance, 0.1f, 0.2f, 0.3f);
+  expect_color(q.specular_reflectance, 0.5f, 0.5f, 0.5f);
   EXPECT_TRUE(q.nonlinear);
   // alpha_u = alpha_v is isotropic, and accepted.
   Bsdf a = material("<bsdf type=\"roughplastic\"><float name=\"alpha_u\" value=\"0.2\"/>"
@@ -356,12 +356,12 @@ TEST_F(MitsubaBsdfs, WardDuer) {
                     "<float name=\"alpha_u\" value=\"0.2\"/><float name=\"alpha_v\" value=\"0.1\"/></bsdf>");
   EXPECT_EQ(w.type, BsdfType::Ward);
   EXPECT_EQ(w.ward.variant, luz::WardVariant::WardDuer);
-  EXPECT_FLOAT_EQ(w.ward.alpha_u.value, 0.2f);
+  EXPECT_FLOAT_EQ(w.ward.alpha_u, 0.2f);
   // Dür's normalisation is Ward's divided by sqrt(cos θo cos θi).
   Bsdf o = w;
   o.ward.variant = luz::WardVariant::Ward;
-  o.ward.diffuse_reflectance = luz::param(0.f);
-  w.ward.diffuse_reflectance = luz::param(0.f);
+  o.ward.diffuse_reflectance = luz::Color{};
+  w.ward.diffuse_reflectance = luz::Color{};
   luz::Vec3 wo = luz::normalize(luz::Vec3{0.3f, 0.1f, 0.8f}), wi = luz::normalize(luz::Vec3{-0.2f, 0.05f, 0.6f});
   EXPECT_FLOAT_EQ(w.f(wo, wi).x, o.f(wo, wi).x / std::sqrt(wo.z * wi.z));
 }
@@ -375,14 +375,14 @@ TEST_F(MitsubaBsdfs, TwosidedWithTwoBsdfs) {
       "<bsdf type=\"roughplastic\"/></bsdf>\n"
       "<shape type=\"sphere\"><ref id=\"pair\"/></shape>\n"
       "<shape type=\"sphere\"><ref id=\"pair2\"/></shape>\n"));
-  const Bsdf& m = s.materials[s.spheres[0].material];
+  const Bsdf& m = s.materials[s.spheres[0].material].bsdf;
   EXPECT_TRUE(m.two_sided);
   EXPECT_TRUE(m.has_back);
   EXPECT_FALSE(m.blend);
   EXPECT_EQ(m.type, BsdfType::Diffuse);  // the first nested bsdf: the front
   expect_color(m.diffuse.reflectance, 0.2f, 0.2f, 0.2f);
   EXPECT_EQ(m.back.type, BsdfType::RoughConductor);  // the second: the back
-  const Bsdf& m2 = s.materials[s.spheres[1].material];
+  const Bsdf& m2 = s.materials[s.spheres[1].material].bsdf;
   EXPECT_TRUE(m2.blend && m2.has_back);
   EXPECT_EQ(m2.second.type, BsdfType::RoughConductor);
   EXPECT_EQ(m2.back.type, BsdfType::RoughPlastic);

@@ -44,20 +44,32 @@ namespace {
 double srgb_decode(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 
 // A linear (non-sRGB) texture over the given bytes (one value per texel, the
-// same in R, G and B, so a lookup's red channel is a plain number).
+// same in R, G and B, so a lookup's red channel is a plain number), looked up
+// through a TextureView as the renderer does.
 struct TinyTexture {
-  TextureDesc desc;
+  Texture tex;
   std::vector<uint32_t> texels;
   std::vector<float> table;  // unused for linear texels
-  TinyTexture(uint32_t w, uint32_t h, std::vector<uint32_t> bytes, TextureFilter f = TextureFilter::Bilinear) {
-    desc.width = w;
-    desc.height = h;
-    desc.filter = f;
-    desc.srgb = false;
-    for (uint32_t b : bytes) texels.push_back(pack_rgba8(b, b, b));
+  TinyTexture(uint32_t w, uint32_t h, std::vector<uint32_t> bytes, TextureFilter f = TextureFilter::Bilinear,
+              WrapMode wrap = WrapMode::Repeat) {
+    BitmapTexture& b = tex.bitmap;
+    b.width = w;
+    b.height = h;
+    b.filter = f;
+    b.wrap = wrap;
+    b.srgb = false;
+    for (uint32_t v : bytes) texels.push_back(pack_rgba8(v, v, v));
     table.assign(256, 0.f);
   }
-  double at(float u, float v) const { return texture_lookup(desc, texels.data(), table.data(), {u, v}).x * 255.0; }
+  TextureView view() const {
+    TextureView v;
+    v.list = &tex;
+    v.texels8 = texels.data();
+    v.srgb_table = table.data();
+    v.count = 1;
+    return v;
+  }
+  double at(float u, float v) const { return view().eval(0, {u, v}).x * 255.0; }
 };
 
 }  // namespace
@@ -98,34 +110,91 @@ TEST(TextureLookup, BilinearTapsStayInsideTheTextureForAnyUv) {
   std::uniform_real_distribution<float> any(-5.f, 5.f);
   for (uint32_t w : {1u, 2u, 3u, 7u}) {
     for (uint32_t h : {1u, 4u}) {
-      TextureDesc d;
-      d.width = w, d.height = h;
-      d.scale = {1.5f, -2.f}, d.shift = {0.25f, 0.75f};
-      std::vector<Vec2> uvs;
-      for (float u : odd)
-        for (float v : odd) uvs.push_back({u, v});
-      for (int k = 0; k < 2000; ++k) uvs.push_back({any(rng), any(rng)});
-      for (Vec2 uv : uvs) {
-        const BilinearTaps t = bilinear_taps(d, uv);
-        ASSERT_LT(t.i0, w) << uv.x << " " << uv.y;
-        ASSERT_LT(t.i1, w);
-        ASSERT_LT(t.j0, h);
-        ASSERT_LT(t.j1, h);
-        ASSERT_TRUE(t.fx >= 0.f && t.fx <= 1.f && t.fy >= 0.f && t.fy <= 1.f);
-        // Poison everything but the taps (value 10 + tap number there).
-        std::vector<uint32_t> texels(size_t(w) * h, pack_rgba8(255, 255, 255));
-        texels[t.j0 * w + t.i0] = pack_rgba8(10, 10, 10);
-        texels[t.j0 * w + t.i1] = pack_rgba8(11, 11, 11);
-        texels[t.j1 * w + t.i0] = pack_rgba8(12, 12, 12);
-        texels[t.j1 * w + t.i1] = pack_rgba8(13, 13, 13);
-        d.srgb = false;
-        const float got = texture_lookup(d, texels.data(), nullptr, uv).x * 255.f;
-        ASSERT_GE(got, 10.f - 1e-3f);
-        ASSERT_LE(got, 13.f + 1e-3f);
-        texture_prefetch(d, texels.data(), uv);
+      for (WrapMode wrap : {WrapMode::Repeat, WrapMode::Mirror, WrapMode::Clamp}) {
+        TinyTexture d(w, h, std::vector<uint32_t>(size_t(w) * h, 255), TextureFilter::Bilinear, wrap);
+        d.tex.to_uv = {1.5f, 0.f, 0.25f, 0.f, -2.f, 0.75f};
+        std::vector<Vec2> uvs;
+        for (float u : odd)
+          for (float v : odd) uvs.push_back({u, v});
+        for (int k = 0; k < 2000; ++k) uvs.push_back({any(rng), any(rng)});
+        for (Vec2 uv : uvs) {
+          const BilinearTaps t = bilinear_taps(d.tex.bitmap, d.tex.to_uv.apply(uv));
+          ASSERT_LT(t.i0, w) << uv.x << " " << uv.y;
+          ASSERT_LT(t.i1, w);
+          ASSERT_LT(t.j0, h);
+          ASSERT_LT(t.j1, h);
+          ASSERT_TRUE(t.fx >= 0.f && t.fx <= 1.f && t.fy >= 0.f && t.fy <= 1.f);
+          ASSERT_LT(nearest_texel(d.tex.bitmap, d.tex.to_uv.apply(uv)), w * h);
+          // Poison everything but the taps (value 10 + tap number there).
+          d.texels.assign(size_t(w) * h, pack_rgba8(255, 255, 255));
+          d.texels[t.j0 * w + t.i0] = pack_rgba8(10, 10, 10);
+          d.texels[t.j0 * w + t.i1] = pack_rgba8(11, 11, 11);
+          d.texels[t.j1 * w + t.i0] = pack_rgba8(12, 12, 12);
+          d.texels[t.j1 * w + t.i1] = pack_rgba8(13, 13, 13);
+          const double got = d.at(uv.x, uv.y);
+          ASSERT_GE(got, 10.0 - 1e-3);
+          ASSERT_LE(got, 13.0 + 1e-3);
+          d.view().prefetch(0, uv);
+        }
       }
     }
   }
+}
+
+// Mirror and clamp against hand-computed values on a 3×1 texture (5 15 25):
+// mirror reflects the texel row at each edge (…, 15, 5 | 5, 15, 25 | 25, 15, …),
+// clamp repeats the edge texel.
+TEST(TextureLookup, MirrorAndClampWrapModes) {
+  const double eps = 1e-3;
+  TinyTexture m(3, 1, {5, 15, 25}, TextureFilter::Bilinear, WrapMode::Mirror);
+  EXPECT_NEAR(m.at(0.f, 0.5f), 5, eps);                 // between texel -1 (= 0) and 0
+  EXPECT_NEAR(m.at(1.f, 0.5f), 25, eps);                // between texel 2 and 3 (= 2)
+  EXPECT_NEAR(m.at(1.5f / 3 + 1.f, 0.5f), 15, eps);     // texel 4 = 1 (the row mirrored)
+  EXPECT_NEAR(m.at(2.5f / 3 + 1.f, 0.5f), 5, eps);      // texel 5 = 0
+  EXPECT_NEAR(m.at(0.5f / 3 - 2.f, 0.5f), 5, eps);      // a whole period (2) away
+  EXPECT_NEAR(m.at(-0.5f / 3, 0.5f), 5, eps);           // texel -1 = 0
+  EXPECT_NEAR(m.at(-1.5f / 3, 0.5f), 15, eps);          // texel -2 = 1
+  EXPECT_NEAR(m.at(1.f + 1.f / 3, 0.5f), 20, eps);      // halfway between texels 3 (= 2) and 4 (= 1)
+  TinyTexture c(3, 1, {5, 15, 25}, TextureFilter::Bilinear, WrapMode::Clamp);
+  EXPECT_NEAR(c.at(0.f, 0.5f), 5, eps);
+  EXPECT_NEAR(c.at(-7.f, 0.5f), 5, eps);
+  EXPECT_NEAR(c.at(1.f, 0.5f), 25, eps);
+  EXPECT_NEAR(c.at(3.f, 0.5f), 25, eps);
+  EXPECT_NEAR(c.at(1.f / 3, 0.5f), 10, eps);
+  EXPECT_NEAR(c.at(NAN, NAN), 5, eps);
+  TinyTexture n(3, 1, {5, 15, 25}, TextureFilter::Nearest, WrapMode::Mirror);
+  EXPECT_NEAR(n.at(1.1f, 0.5f), 25, eps);  // texel 3 = 2
+  EXPECT_NEAR(n.at(1.5f, 0.5f), 15, eps);  // texel 4 = 1
+  EXPECT_NEAR(n.at(-0.1f, 0.5f), 5, eps);  // texel -1 = 0
+  n.tex.bitmap.wrap = WrapMode::Clamp;
+  EXPECT_NEAR(n.at(1.5f, 0.5f), 25, eps);
+  EXPECT_NEAR(n.at(-0.5f, 0.5f), 5, eps);
+}
+
+// Float texels are read as they are; a checkerboard is color0 where exactly
+// one of frac(u), frac(v) exceeds 1/2 (Mitsuba 3); to_uv applies first.
+TEST(TextureLookup, FloatTexelsCheckerboardAndToUv) {
+  std::vector<Texture> list;
+  BitmapTexture b;
+  b.width = 2, b.height = 1, b.is_float = true, b.filter = TextureFilter::Nearest;
+  list.emplace_back(b);
+  Texture checker{CheckerboardTexture{{1.f, 2.f, 3.f}, {4.f, 5.f, 6.f}}};
+  checker.to_uv = {2.f, 0.f, 0.f, 0.f, 2.f, 0.f};  // four squares per unit of uv
+  list.push_back(checker);
+  const std::vector<float> texelsf = {0.25f, 7.5f, 1e3f, 2.f, 0.f, 65504.f};
+  TextureView v;
+  v.list = list.data();
+  v.texelsf = texelsf.data();
+  v.count = 2;
+  EXPECT_EQ(v.eval(0, {0.2f, 0.5f}).y, 7.5f);
+  EXPECT_EQ(v.eval(0, {0.7f, 0.5f}).z, 65504.f);
+  list[0].to_uv = {0.f, 1.f, 0.f, 1.f, 0.f, 0.f};  // u' = v
+  EXPECT_EQ(v.eval(0, {0.2f, 0.7f}).x, 2.f);
+  EXPECT_EQ(v.eval(1, {0.1f, 0.1f}).x, 4.f);   // (0.2, 0.2): neither > 1/2
+  EXPECT_EQ(v.eval(1, {0.3f, 0.1f}).x, 1.f);   // (0.6, 0.2): one
+  EXPECT_EQ(v.eval(1, {0.3f, 0.3f}).x, 4.f);   // (0.6, 0.6): both
+  EXPECT_EQ(v.eval(1, {0.1f, -0.1f}).x, 1.f);  // (0.2, -0.2 -> 0.8): one
+  EXPECT_NEAR(luminance({1.f, 1.f, 1.f}), 1.f, 1e-6f);
 }
 
 TEST(TextureLookup, NearestScaleAndOffset) {
@@ -137,16 +206,15 @@ TEST(TextureLookup, NearestScaleAndOffset) {
   EXPECT_NEAR(t.at(0.6f, 0.6f), 40, 1e-4);
   EXPECT_NEAR(t.at(-0.4f, 1.1f), 20, 1e-4);  // wraps to (0.6, 0.1)
   // uv' = uv · (2, 1) + (0, 0.5): (0.3, 0.1) -> (0.6, 0.6).
-  t.desc.scale = {2.f, 1.f};
-  t.desc.shift = {0.f, 0.5f};
+  t.tex.to_uv = {2.f, 0.f, 0.f, 0.f, 1.f, 0.5f};
   EXPECT_NEAR(t.at(0.3f, 0.1f), 40, 1e-4);
 }
 
 TEST(TextureLookup, SrgbDecodingFollowsTheStandardFormula) {
   Scene s;
-  TextureDesc one_texel;
+  BitmapTexture one_texel;
   one_texel.width = one_texel.height = 1;
-  s.add_texture(one_texel, {pack_rgba8(0, 128, 255)});
+  s.add_bitmap(one_texel, {}, std::vector<uint32_t>{pack_rgba8(0, 128, 255)});
   ASSERT_EQ(s.srgb_table.size(), 256u);
   for (int k = 0; k < 256; ++k) {
     EXPECT_NEAR(s.srgb_table[k], srgb_decode(k / 255.0), 1e-7) << k;
@@ -157,10 +225,10 @@ TEST(TextureLookup, SrgbDecodingFollowsTheStandardFormula) {
   EXPECT_NEAR(s.srgb_table[255], 1.0, 1e-7);
   // An sRGB texel decodes through the table; the same bytes as linear do not.
   SceneView v = s.view();
-  Color c = v.texture_value(0, {0.5f, 0.5f});
+  Color c = v.textures.eval(0, {0.5f, 0.5f});
   EXPECT_NEAR(c.y, 0.2158605, 1e-6);
-  s.textures[0].srgb = false;
-  EXPECT_NEAR(s.view().texture_value(0, {0.5f, 0.5f}).y, 128.0 / 255, 1e-6);
+  s.textures[0].bitmap.srgb = false;
+  EXPECT_NEAR(s.view().textures.eval(0, {0.5f, 0.5f}).y, 128.0 / 255, 1e-6);
 }
 
 using TextureUv = TempDirTest;
@@ -262,8 +330,8 @@ TEST_F(TextureUv, MixedMeshesKeepTheirUvsAndEveryTexturableModelSeesTheTexture) 
   auto reflectance = [](const Bsdf& b) {
     switch (b.type) {
       case BsdfType::Diffuse: return b.diffuse.reflectance;
-      case BsdfType::SmoothPlastic: return b.smooth_plastic.diffuse_reflectance.value;
-      case BsdfType::RoughPlastic: return b.rough_plastic.diffuse_reflectance.value;
+      case BsdfType::SmoothPlastic: return b.smooth_plastic.diffuse_reflectance;
+      case BsdfType::RoughPlastic: return b.rough_plastic.diffuse_reflectance;
       default: return Color{-1.f, -1.f, -1.f};
     }
   };
@@ -278,10 +346,10 @@ TEST_F(TextureUv, MixedMeshesKeepTheirUvsAndEveryTexturableModelSeesTheTexture) 
       hit.u = corner == 0 ? 0.01f : 0.98f;  // near vertex 0, or near vertex 1
       hit.v = 0.f;
       Interaction it = v.interaction(ray, hit);
-      BsdfScratch scratch;
-      const Bsdf& b = v.material(it, hit, scratch);
+      Bsdf local;
+      const Bsdf& b = v.bsdf(it, hit, local);
       ASSERT_EQ(b.type, types[m]);
-      EXPECT_NE(&b, &v.materials[it.material]) << "a textured material must be resolved into the scratch copy";
+      EXPECT_EQ(&b, &local) << "a textured material's BSDF is evaluated at the hit";
       const Color r = reflectance(b);
       for (int c = 0; c < 3; ++c) EXPECT_NEAR(r[c], texel(corner, c), 1e-6f) << m << " " << corner << " " << c;
     }
@@ -425,24 +493,24 @@ TEST_F(MitsubaLegacy, CamelCaseNamesLoadAsTheirMitsuba3Spelling) {
   for (size_t k = 0; k < a.positions.size(); ++k)
     for (int c = 0; c < 3; ++c) EXPECT_EQ(a.positions[k][c], b.positions[k][c]);
   // The materials the shapes use, parameter by parameter.
-  const Bsdf& pa = a.materials[a.tri_material[0]];
-  const Bsdf& pb = b.materials[b.tri_material[0]];
+  const Bsdf& pa = a.materials[a.tri_material[0]].bsdf;
+  const Bsdf& pb = b.materials[b.tri_material[0]].bsdf;
   ASSERT_EQ(pa.type, BsdfType::RoughPlastic);
   ASSERT_EQ(pb.type, BsdfType::RoughPlastic);
   EXPECT_NEAR(pa.rough_plastic.eta, 1.6f / 1.1f, 1e-6f);
   EXPECT_EQ(pa.rough_plastic.eta, pb.rough_plastic.eta);
-  EXPECT_NEAR(pa.rough_plastic.diffuse_reflectance.value.z, 0.5f, 1e-7f);
-  EXPECT_EQ(pa.rough_plastic.diffuse_reflectance.value.y, pb.rough_plastic.diffuse_reflectance.value.y);
-  EXPECT_EQ(pa.rough_plastic.specular_reflectance.value.x, pb.rough_plastic.specular_reflectance.value.x);
+  EXPECT_NEAR(pa.rough_plastic.diffuse_reflectance.z, 0.5f, 1e-7f);
+  EXPECT_EQ(pa.rough_plastic.diffuse_reflectance.y, pb.rough_plastic.diffuse_reflectance.y);
+  EXPECT_EQ(pa.rough_plastic.specular_reflectance.x, pb.rough_plastic.specular_reflectance.x);
   EXPECT_EQ(pa.rough_plastic.alpha, pb.rough_plastic.alpha);
-  const Bsdf& ca = a.materials[a.tri_material.back()];
-  const Bsdf& cb = b.materials[b.tri_material.back()];
+  const Bsdf& ca = a.materials[a.tri_material.back()].bsdf;
+  const Bsdf& cb = b.materials[b.tri_material.back()].bsdf;
   ASSERT_EQ(ca.type, BsdfType::SmoothConductor);
   for (int k = 0; k < 3; ++k) {
-    EXPECT_NEAR(ca.smooth_conductor.eta.value[k], cb.smooth_conductor.eta.value[k], 1e-6f);
-    EXPECT_NEAR(ca.smooth_conductor.k.value[k], cb.smooth_conductor.k.value[k], 1e-6f);
+    EXPECT_NEAR(ca.smooth_conductor.eta[k], cb.smooth_conductor.eta[k], 1e-6f);
+    EXPECT_NEAR(ca.smooth_conductor.k[k], cb.smooth_conductor.k[k], 1e-6f);
   }
-  EXPECT_NEAR(ca.smooth_conductor.eta.value.z, 1.4f, 1e-6f);
+  EXPECT_NEAR(ca.smooth_conductor.eta.z, 1.4f, 1e-6f);
 }
 
 // Mitsuba 0.5's <srgb> colours decode to linear RGB (hex and numbers; refused
@@ -463,7 +531,7 @@ TEST_F(MitsubaLegacy, SrgbColoursAndFlipTexCoords) {
   Scene hex = load_mitsuba(write("a.xml", scene("0.5.0", "<srgb name=\"reflectance\" value=\"#ff8000\"/>",
                                                 "<boolean name=\"flipTexCoords\" value=\"false\"/>")),
                            {});
-  const Color r = hex.materials[hex.tri_material.back()].diffuse.reflectance;
+  const Color r = hex.materials[hex.tri_material.back()].bsdf.diffuse.reflectance;
   EXPECT_NEAR(r.x, 1.f, 1e-6f);
   EXPECT_NEAR(r.y, srgb_decode(128 / 255.0), 1e-6);
   EXPECT_EQ(r.z, 0.f);
@@ -471,7 +539,7 @@ TEST_F(MitsubaLegacy, SrgbColoursAndFlipTexCoords) {
   EXPECT_NEAR(hex.uvs[2].y, 0.5f, 1e-6f);
   Scene num = load_mitsuba(write("b.xml", scene("0.5.0", "<srgb name=\"reflectance\" value=\"0.5, 0.2, 0.9\"/>", "")),
                            {});
-  const Color q = num.materials[num.tri_material.back()].diffuse.reflectance;
+  const Color q = num.materials[num.tri_material.back()].bsdf.diffuse.reflectance;
   EXPECT_NEAR(q.x, srgb_decode(0.5), 1e-6);
   EXPECT_NEAR(q.y, srgb_decode(0.2), 1e-6);
   EXPECT_NEAR(q.z, srgb_decode(0.9), 1e-6);
@@ -530,9 +598,9 @@ TEST_F(MitsubaLegacy, BadNamesAreErrorsWithTheirLine) {
                       "</texture>\n</bsdf></shape></scene>\n",
                5, "cannot read image");
   expect_error("<scene version=\"0.5.0\">\n<sensor type=\"perspective\"/>\n<shape type=\"rectangle\">\n"
-               "<bsdf type=\"phong\">\n<texture name=\"diffuseReflectance\" type=\"bitmap\">"
+               "<bsdf type=\"roughplastic\">\n<texture name=\"alpha\" type=\"bitmap\">"
                "<string name=\"filename\" value=\"t.png\"/></texture>\n</bsdf></shape></scene>\n",
-               5, "wrong type <texture>");
+               5, "'alpha' cannot take a texture");
 }
 
 // ---- the Wooden Staircase ----
@@ -580,7 +648,7 @@ class Staircase : public ::testing::Test {
 
 TEST_F(Staircase, LoadsAllMeshesAndTextures) {
   std::printf("[staircase] loaded in %.2f s: %u triangles, %zu textures (%zu texels), %zu materials\n", load_seconds,
-              scene->num_triangles(), scene->textures.size(), scene->texels.size(), scene->materials.size());
+              scene->num_triangles(), scene->textures.size(), scene->texels8.size(), scene->materials.size());
   EXPECT_EQ(scene->num_triangles(), 262663u);
   EXPECT_EQ(scene->textures.size(), 9u);  // ten bitmaps; the bumpmap's is not loaded (the bump is ignored)
   EXPECT_EQ(scene->uvs.size(), scene->positions.size());
@@ -589,7 +657,7 @@ TEST_F(Staircase, LoadsAllMeshesAndTextures) {
   EXPECT_EQ(scene->camera.width, 720);
   EXPECT_EQ(scene->camera.height, 1280);
   size_t textured = 0;
-  for (const Bsdf& b : scene->materials) textured += b.texture >= 0;
+  for (const Material& m : scene->materials) textured += m.num_bindings > 0;
   EXPECT_GE(textured, 9u);
 }
 

@@ -23,12 +23,18 @@ namespace luz {
 
 struct BlinnPhongBsdf {
   static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
-  Param diffuse_reflectance, specular_reflectance;
-  ScalarParam exponent;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::DiffuseReflectance ? &diffuse_reflectance :
+           p == BsdfParam::SpecularReflectance ? &specular_reflectance : nullptr;
+  }
+  LUZ_INLINE float* float_param(BsdfParam p) { return p == BsdfParam::Exponent ? &exponent : nullptr; }
+  Color diffuse_reflectance, specular_reflectance;
+  float exponent = 0.f;
 
   LUZ_INLINE void lobe_probabilities(float& pd, float& ps) const {
-    pd = max_component(diffuse_reflectance.eval());
-    ps = max_component(specular_reflectance.eval());
+    pd = max_component(diffuse_reflectance);
+    ps = max_component(specular_reflectance);
     float sum = pd + ps;
     if (sum > 1.f) {
       pd /= sum;
@@ -38,16 +44,16 @@ struct BlinnPhongBsdf {
   LUZ_INLINE Color f(Vec3 wo, Vec3 wi) const {
     if (!(wo.z > 0.f) || !(wi.z > 0.f)) return {};
     Vec3 h = normalize(wo + wi);
-    float n = exponent.eval();
-    return diffuse_reflectance.eval() * kInvPi +
-           specular_reflectance.eval() * ((n + 8.f) * (kInvPi / 8.f) * powf(max(h.z, 0.f), n));
+    float n = exponent;
+    return diffuse_reflectance * kInvPi +
+           specular_reflectance * ((n + 8.f) * (kInvPi / 8.f) * powf(max(h.z, 0.f), n));
   }
   LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
     if (!(wo.z > 0.f) || !(wi.z > 0.f)) return 0.f;
     float pd, ps;
     lobe_probabilities(pd, ps);
     Vec3 h = normalize(wo + wi);
-    return pd * cosine_hemisphere_pdf(wi) + ps * cosine_power_pdf(h.z, exponent.eval()) / (4.f * dot(wo, h));
+    return pd * cosine_hemisphere_pdf(wi) + ps * cosine_power_pdf(h.z, exponent) / (4.f * dot(wo, h));
   }
   LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2) const {
     BsdfSample s;
@@ -55,7 +61,7 @@ struct BlinnPhongBsdf {
     float pd, ps;
     lobe_probabilities(pd, ps);
     if (u1 < ps) {
-      Vec3 h = square_to_cosine_power(u2, exponent.eval());
+      Vec3 h = square_to_cosine_power(u2, exponent);
       if (!(dot(wo, h) > 0.f)) return s;
       s.wi = reflect(wo, h);
     } else if (u1 < ps + pd) {

@@ -17,6 +17,7 @@
 // sampled continuation). f() is the BSDF value itself, without the cosine.
 #pragma once
 
+#include <cstring>
 #include <type_traits>
 
 #include "luz/bsdf/blinnphong.h"
@@ -56,8 +57,12 @@ constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::RoughPlastic) + 1;
 
 // One BSDF model: a tag and the model's parameters in a union (every model
 // is a small trivially copyable struct).
+// The tag of constructors that leave a BSDF's storage unwritten, for one
+// that is filled at once (Bsdf::copy_of).
+struct Uninitialized {};
+
 struct BsdfComponent {
-  BsdfType type = BsdfType::Diffuse;
+  BsdfType type;
   union {
     DiffuseBsdf diffuse;
     PhongBsdf phong;
@@ -74,13 +79,14 @@ struct BsdfComponent {
 
   // The models' members have default initialisers, so the union needs a
   // constructor saying which one is live: a diffuse grey 0 until set.
-  LUZ_INLINE BsdfComponent() : diffuse() {}
+  LUZ_INLINE BsdfComponent() : type(BsdfType::Diffuse), diffuse() {}
+  LUZ_INLINE explicit BsdfComponent(Uninitialized) {}
 };
 static_assert(std::is_trivially_copyable_v<BsdfComponent>, "BSDFs are copied to the GPU as bytes");
 
-// Calls f with the component's model.
-template <class F>
-LUZ_FORCE_INLINE decltype(auto) visit(const BsdfComponent& c, F&& f) {
+// Calls f with the component's model (const as the component is).
+template <class C, class F, std::enable_if_t<std::is_base_of_v<BsdfComponent, std::remove_const_t<C>>, int> = 0>
+LUZ_FORCE_INLINE decltype(auto) visit(C& c, F&& f) {
   switch (c.type) {
     case BsdfType::Diffuse: return f(c.diffuse);
     case BsdfType::Phong: return f(c.phong);
@@ -94,6 +100,14 @@ LUZ_FORCE_INLINE decltype(auto) visit(const BsdfComponent& c, F&& f) {
     case BsdfType::Ward: return f(c.ward);
     default: return f(c.rough_plastic);
   }
+}
+
+// The component's member a parameter name means (BsdfParam), or null.
+LUZ_INLINE Color* color_param(BsdfComponent& c, BsdfParam p) {
+  return visit(c, [&](auto& m) { return m.color_param(p); });
+}
+LUZ_INLINE float* float_param(BsdfComponent& c, BsdfParam p) {
+  return visit(c, [&](auto& m) { return m.float_param(p); });
 }
 
 // The flags of the component's model.
@@ -126,27 +140,34 @@ LUZ_INLINE bool is_transmissive(const BsdfComponent& c) {
 // Every sample carries BsdfSample::delta / transmission / eta (common.h).
 // f() and pdf() never include delta lobes.
 struct Bsdf : BsdfComponent {
-  bool two_sided = false;
-  bool blend = false;
-  // A bitmap texture (SceneView::textures) giving the front component's
-  // diffuse reflectance at each hit, or -1. SceneView::material() resolves
-  // it into a copy with the value filled in (set_textured_reflectance), so
-  // the models themselves only ever see constants. 16 bits, beside the other
-  // flags every vertex reads (Scene::add_texture keeps the count in range).
-  int16_t texture = -1;
-  float blend_weight = 0.f;  // w: the share of `second`
-  bool has_back = false;      // two_sided with a different BSDF behind
+  bool two_sided;
+  bool blend;
+  float blend_weight;  // w: the share of `second`
+  bool has_back;       // two_sided with a different BSDF behind
   BsdfComponent second;
   BsdfComponent back;
 
-  // Diffuse, smooth and rough plastic (the loader refuses textures on others).
-  LUZ_INLINE void set_textured_reflectance(Color c) {
-    switch (type) {
-      case BsdfType::Diffuse: diffuse.reflectance = c; break;
-      case BsdfType::SmoothPlastic: smooth_plastic.diffuse_reflectance = param(c); break;
-      case BsdfType::RoughPlastic: rough_plastic.diffuse_reflectance = param(c); break;
-      default: break;
-    }
+  LUZ_INLINE Bsdf() : two_sided(false), blend(false), blend_weight(0.f), has_back(false) {}
+  LUZ_INLINE explicit Bsdf(Uninitialized u) : BsdfComponent(u), second(u), back(u) {}
+
+  // A copy of what src's type and flags make live: each component in use,
+  // its active model only (a diffuse one is 12 bytes of the Bsdf's 552),
+  // the rest of the storage left unwritten.
+  LUZ_FORCE_INLINE static Bsdf copy_of(const Bsdf& src) {
+    Bsdf b{Uninitialized{}};
+    copy_component(b, src);
+    b.two_sided = src.two_sided;
+    b.blend = src.blend;
+    b.blend_weight = src.blend_weight;
+    b.has_back = src.has_back;
+    if (src.blend) copy_component(b.second, src.second);
+    if (src.has_back) copy_component(b.back, src.back);
+    return b;
+  }
+  LUZ_FORCE_INLINE static void copy_component(BsdfComponent& dst, const BsdfComponent& src) {
+    dst.type = src.type;
+    // Every model starts at the union's address; they are trivially copyable.
+    visit(src, [&](const auto& m) { memcpy(static_cast<void*>(&dst.diffuse), &m, sizeof(m)); });
   }
 
   // wo is on the back side and a separate back BSDF serves it.
@@ -301,7 +322,7 @@ struct Bsdf : BsdfComponent {
     Bsdf b;
     b.type = BsdfType::SmoothConductor;
     b.two_sided = two_sided;
-    b.smooth_conductor = SmoothConductorBsdf{param(eta), param(k), param(specular)};
+    b.smooth_conductor = SmoothConductorBsdf{eta, k, specular};
     return b;
   }
   // Mitsuba `roughconductor`: distribution, alpha_u, alpha_v, eta, k, specular_reflectance.
@@ -311,7 +332,7 @@ struct Bsdf : BsdfComponent {
     b.type = BsdfType::RoughConductor;
     b.two_sided = two_sided;
     b.rough_conductor =
-        RoughConductorBsdf{t, scalar_param(alpha_u), scalar_param(alpha_v), param(eta), param(k), param(specular)};
+        RoughConductorBsdf{t, alpha_u, alpha_v, eta, k, specular};
     return b;
   }
   // Mitsuba `dielectric`: int_ior, ext_ior, specular_reflectance, specular_transmittance.
@@ -319,7 +340,7 @@ struct Bsdf : BsdfComponent {
                                                 Color trans = {1.f, 1.f, 1.f}) {
     Bsdf b;
     b.type = BsdfType::SmoothDielectric;
-    b.smooth_dielectric = SmoothDielectricBsdf{int_ior / ext_ior, param(refl), param(trans)};
+    b.smooth_dielectric = SmoothDielectricBsdf{int_ior / ext_ior, refl, trans};
     return b;
   }
   // Mitsuba `thindielectric`.
@@ -327,7 +348,7 @@ struct Bsdf : BsdfComponent {
                                               Color trans = {1.f, 1.f, 1.f}) {
     Bsdf b;
     b.type = BsdfType::ThinDielectric;
-    b.thin_dielectric = ThinDielectricBsdf{int_ior / ext_ior, param(refl), param(trans)};
+    b.thin_dielectric = ThinDielectricBsdf{int_ior / ext_ior, refl, trans};
     return b;
   }
   // Mitsuba `roughdielectric`.
@@ -336,8 +357,8 @@ struct Bsdf : BsdfComponent {
                                                Color trans = {1.f, 1.f, 1.f}) {
     Bsdf b;
     b.type = BsdfType::RoughDielectric;
-    b.rough_dielectric = RoughDielectricBsdf{t,       scalar_param(alpha_u), scalar_param(alpha_v), int_ior / ext_ior,
-                                             param(refl), param(trans)};
+    b.rough_dielectric = RoughDielectricBsdf{t,       alpha_u, alpha_v, int_ior / ext_ior,
+                                             refl, trans};
     return b;
   }
   // Mitsuba `plastic`. Host only (integrates F_dr).
@@ -353,7 +374,7 @@ struct Bsdf : BsdfComponent {
     Bsdf b;
     b.type = BsdfType::BlinnPhong;
     b.two_sided = two_sided;
-    b.blinn_phong = BlinnPhongBsdf{param(kd), param(ks), scalar_param(n)};
+    b.blinn_phong = BlinnPhongBsdf{kd, ks, n};
     return b;
   }
   // Mitsuba `roughplastic`: distribution, alpha (isotropic), int_ior, ext_ior,
@@ -374,7 +395,7 @@ struct Bsdf : BsdfComponent {
     Bsdf b;
     b.type = BsdfType::Ward;
     b.two_sided = two_sided;
-    b.ward = WardBsdf{v, param(kd), param(ks), scalar_param(alpha_u), scalar_param(alpha_v)};
+    b.ward = WardBsdf{v, kd, ks, alpha_u, alpha_v};
     return b;
   }
   // Mitsuba `blendbsdf`: (1 - weight) a + weight b. a and b must not be blends

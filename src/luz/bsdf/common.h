@@ -9,20 +9,21 @@
 
 namespace luz {
 
-// A texture-or-constant slot. Constants only for now: a later textures issue
-// adds a texture id (and eval() takes the shading point's uv); every model
-// already reads its parameters through eval(), so only this struct changes.
-struct Param {
-  Color value;
-  LUZ_INLINE Color eval() const { return value; }
+// The parameters a texture can drive (material/material.h binds textures to
+// them by these names). Each model answers which of its members a name
+// means: Color* color_param(BsdfParam) and float* float_param(BsdfParam),
+// null for a name it does not have or that cannot vary over the surface.
+enum class BsdfParam : uint8_t {
+  Reflectance,
+  DiffuseReflectance,
+  SpecularReflectance,
+  SpecularTransmittance,
+  Eta,
+  K,
+  AlphaU,
+  AlphaV,
+  Exponent,
 };
-struct ScalarParam {
-  float value = 0.f;
-  LUZ_INLINE float eval() const { return value; }
-};
-LUZ_INLINE Param param(Color c) { return Param{c}; }
-LUZ_INLINE Param param(float v) { return Param{{v, v, v}}; }
-LUZ_INLINE ScalarParam scalar_param(float v) { return ScalarParam{v}; }
 
 // What is transported along the path: radiance (camera paths, the path
 // tracer) or importance (light paths). The two differ only for refraction:

@@ -26,7 +26,14 @@ namespace luz {
 
 struct SmoothConductorBsdf {
   static constexpr bool kDeltaOnly = true, kHasDelta = true, kTransmission = false;
-  Param eta, k, specular_reflectance;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::Eta ? &eta :
+           p == BsdfParam::K ? &k :
+           p == BsdfParam::SpecularReflectance ? &specular_reflectance : nullptr;
+  }
+  LUZ_INLINE float* float_param(BsdfParam) { return nullptr; }
+  Color eta, k, specular_reflectance;
 
   LUZ_INLINE Color f(Vec3, Vec3) const { return {}; }
   LUZ_INLINE float pdf(Vec3, Vec3) const { return 0.f; }
@@ -36,7 +43,7 @@ struct SmoothConductorBsdf {
     s.wi = {-wo.x, -wo.y, wo.z};
     s.pdf = 1.f;
     s.delta = true;
-    s.weight = specular_reflectance.eval() * fresnel_conductor(wo.z, eta.eval(), k.eval());
+    s.weight = specular_reflectance * fresnel_conductor(wo.z, eta, k);
     s.valid = true;
     return s;
   }
@@ -44,12 +51,22 @@ struct SmoothConductorBsdf {
 
 struct RoughConductorBsdf {
   static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::Eta ? &eta :
+           p == BsdfParam::K ? &k :
+           p == BsdfParam::SpecularReflectance ? &specular_reflectance : nullptr;
+  }
+  LUZ_INLINE float* float_param(BsdfParam p) {
+    return p == BsdfParam::AlphaU ? &alpha_u :
+           p == BsdfParam::AlphaV ? &alpha_v : nullptr;
+  }
   MicrofacetType distribution = MicrofacetType::Beckmann;
-  ScalarParam alpha_u, alpha_v;
-  Param eta, k, specular_reflectance;
+  float alpha_u = 0.f, alpha_v = 0.f;
+  Color eta, k, specular_reflectance;
 
   LUZ_INLINE MicrofacetDistribution dist() const {
-    return MicrofacetDistribution::make(distribution, alpha_u.eval(), alpha_v.eval());
+    return MicrofacetDistribution::make(distribution, alpha_u, alpha_v);
   }
   LUZ_INLINE Color f(Vec3 wo, Vec3 wi) const {
     if (!(wo.z > 0.f) || !(wi.z > 0.f)) return {};
@@ -58,8 +75,8 @@ struct RoughConductorBsdf {
     float D = d.D(h);
     if (D == 0.f) return {};
     float G = d.G2(wo, wi, h);
-    Color F = fresnel_conductor(dot(wo, h), eta.eval(), k.eval());
-    return specular_reflectance.eval() * F * (D * G / (4.f * wo.z * wi.z));
+    Color F = fresnel_conductor(dot(wo, h), eta, k);
+    return specular_reflectance * F * (D * G / (4.f * wo.z * wi.z));
   }
   LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
     if (!(wo.z > 0.f) || !(wi.z > 0.f)) return 0.f;
@@ -78,8 +95,8 @@ struct RoughConductorBsdf {
     s.pdf = d.pdf_visible(wo, m) / (4.f * wom);
     if (!(s.pdf > 0.f)) return s;
     float lo = d.lambda(wo), li = d.lambda(s.wi);
-    Color F = fresnel_conductor(wom, eta.eval(), k.eval());
-    s.weight = specular_reflectance.eval() * F * ((1.f + lo) / (1.f + lo + li));  // F G2 / G1
+    Color F = fresnel_conductor(wom, eta, k);
+    s.weight = specular_reflectance * F * ((1.f + lo) / (1.f + lo + li));  // F G2 / G1
     s.valid = true;
     return s;
   }

@@ -24,8 +24,14 @@ namespace luz {
 
 struct SmoothDielectricBsdf {
   static constexpr bool kDeltaOnly = true, kHasDelta = true, kTransmission = true;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::SpecularReflectance ? &specular_reflectance :
+           p == BsdfParam::SpecularTransmittance ? &specular_transmittance : nullptr;
+  }
+  LUZ_INLINE float* float_param(BsdfParam) { return nullptr; }
   float eta = 1.5046f;  // int_ior / ext_ior
-  Param specular_reflectance, specular_transmittance;
+  Color specular_reflectance, specular_transmittance;
 
   LUZ_INLINE Color f(Vec3, Vec3, TransportMode = TransportMode::Radiance) const { return {}; }
   LUZ_INLINE float pdf(Vec3, Vec3) const { return 0.f; }
@@ -39,11 +45,11 @@ struct SmoothDielectricBsdf {
     if (u1 < fr.F) {
       s.wi = {-wo.x, -wo.y, wo.z};
       s.pdf = fr.F;
-      s.weight = specular_reflectance.eval();
+      s.weight = specular_reflectance;
     } else {
       s.wi = refract(wo, Vec3{0.f, 0.f, 1.f}, fr.cos_t, fr.eta_ti);
       s.pdf = 1.f - fr.F;
-      s.weight = specular_transmittance.eval();
+      s.weight = specular_transmittance;
       if (mode == TransportMode::Radiance) s.weight *= fr.eta_ti * fr.eta_ti;
       s.transmission = true;
       s.eta = fr.eta_it;
@@ -58,8 +64,14 @@ struct SmoothDielectricBsdf {
 // -wo, no net refraction, eta = 1, no radiance scaling).
 struct ThinDielectricBsdf {
   static constexpr bool kDeltaOnly = true, kHasDelta = true, kTransmission = true;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::SpecularReflectance ? &specular_reflectance :
+           p == BsdfParam::SpecularTransmittance ? &specular_transmittance : nullptr;
+  }
+  LUZ_INLINE float* float_param(BsdfParam) { return nullptr; }
   float eta = 1.5046f;
-  Param specular_reflectance, specular_transmittance;
+  Color specular_reflectance, specular_transmittance;
 
   LUZ_INLINE Color f(Vec3, Vec3, TransportMode = TransportMode::Radiance) const { return {}; }
   LUZ_INLINE float pdf(Vec3, Vec3) const { return 0.f; }
@@ -77,11 +89,11 @@ struct ThinDielectricBsdf {
     if (u1 < R) {
       s.wi = {-wo.x, -wo.y, wo.z};
       s.pdf = R;
-      s.weight = specular_reflectance.eval();
+      s.weight = specular_reflectance;
     } else {
       s.wi = -wo;
       s.pdf = 1.f - R;
-      s.weight = specular_transmittance.eval();
+      s.weight = specular_transmittance;
       s.transmission = true;
     }
     return s;
@@ -108,13 +120,22 @@ struct ThinDielectricBsdf {
 // a failed sample.
 struct RoughDielectricBsdf {
   static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = true;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::SpecularReflectance ? &specular_reflectance :
+           p == BsdfParam::SpecularTransmittance ? &specular_transmittance : nullptr;
+  }
+  LUZ_INLINE float* float_param(BsdfParam p) {
+    return p == BsdfParam::AlphaU ? &alpha_u :
+           p == BsdfParam::AlphaV ? &alpha_v : nullptr;
+  }
   MicrofacetType distribution = MicrofacetType::Beckmann;
-  ScalarParam alpha_u, alpha_v;
+  float alpha_u = 0.f, alpha_v = 0.f;
   float eta = 1.5046f;
-  Param specular_reflectance, specular_transmittance;
+  Color specular_reflectance, specular_transmittance;
 
   LUZ_INLINE MicrofacetDistribution dist() const {
-    return MicrofacetDistribution::make(distribution, alpha_u.eval(), alpha_v.eval());
+    return MicrofacetDistribution::make(distribution, alpha_u, alpha_v);
   }
 
   // The half vector of (wo, wi) in the upper hemisphere, and η = η_wi/η_wo
@@ -153,11 +174,11 @@ struct RoughDielectricBsdf {
     float G = d.G2(wo, wi, m);
     float wom = dot(wo, m), wim = dot(wi, m);
     float F = fresnel(wo, wom, wim, reflect);
-    if (reflect) return specular_reflectance.eval() * (F * D * G / (4.f * fabsf(wo.z * wi.z)));
+    if (reflect) return specular_reflectance * (F * D * G / (4.f * fabsf(wo.z * wi.z)));
     float denom = wom + eta_p * wim;
     float v = (1.f - F) * D * G * fabsf(wom * wim) / (fabsf(wo.z * wi.z) * denom * denom);
     if (mode == TransportMode::Importance) v *= eta_p * eta_p;
-    return specular_transmittance.eval() * v;
+    return specular_transmittance * v;
   }
 
   LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
@@ -190,14 +211,14 @@ struct RoughDielectricBsdf {
       s.wi = reflect(wo, m);
       if (!(s.wi.z * wo.z > 0.f)) return s;
       s.pdf = fr.F * pm / (4.f * fabsf(wom));
-      s.weight = specular_reflectance.eval() * ((1.f + lo) / (1.f + lo + d.lambda(s.wi)));
+      s.weight = specular_reflectance * ((1.f + lo) / (1.f + lo + d.lambda(s.wi)));
     } else {
       s.wi = normalize(refract(wo, m, fr.cos_t, fr.eta_ti));
       if (!(s.wi.z * wo.z < 0.f)) return s;
       float wim = dot(s.wi, m), eta_p = fr.eta_it;
       float denom = wom + eta_p * wim;
       s.pdf = (1.f - fr.F) * pm * eta_p * eta_p * fabsf(wim) / (denom * denom);
-      s.weight = specular_transmittance.eval() * ((1.f + lo) / (1.f + lo + d.lambda(s.wi)));
+      s.weight = specular_transmittance * ((1.f + lo) / (1.f + lo + d.lambda(s.wi)));
       if (mode == TransportMode::Radiance) s.weight *= fr.eta_ti * fr.eta_ti;
       s.transmission = true;
       s.eta = eta_p;

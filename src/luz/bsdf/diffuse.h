@@ -9,6 +9,9 @@ namespace luz {
 
 struct DiffuseBsdf {
   static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) { return p == BsdfParam::Reflectance ? &reflectance : nullptr; }
+  LUZ_INLINE float* float_param(BsdfParam) { return nullptr; }
   Color reflectance;
 
   LUZ_INLINE Color f(Vec3, Vec3) const { return reflectance * kInvPi; }

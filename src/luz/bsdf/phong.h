@@ -22,6 +22,12 @@ namespace luz {
 
 struct PhongBsdf {
   static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::DiffuseReflectance ? &kd :
+           p == BsdfParam::SpecularReflectance ? &ks : nullptr;
+  }
+  LUZ_INLINE float* float_param(BsdfParam p) { return p == BsdfParam::Exponent ? &exponent : nullptr; }
   Color kd, ks;
   float exponent = 1.f;
 

@@ -28,7 +28,13 @@ namespace luz {
 
 struct SmoothPlasticBsdf {
   static constexpr bool kDeltaOnly = false, kHasDelta = true, kTransmission = false;
-  Param diffuse_reflectance, specular_reflectance;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::DiffuseReflectance ? &diffuse_reflectance :
+           p == BsdfParam::SpecularReflectance ? &specular_reflectance : nullptr;
+  }
+  LUZ_INLINE float* float_param(BsdfParam) { return nullptr; }
+  Color diffuse_reflectance, specular_reflectance;
   float eta = 1.49f / 1.000277f;  // Mitsuba's defaults: polypropylene in air
   float fdr_int = 0.f;            // set by make()
   float specular_sampling_weight = 0.5f;
@@ -38,8 +44,8 @@ struct SmoothPlasticBsdf {
                                 bool nonlinear = false) {
     SmoothPlasticBsdf p;
     p.nonlinear = nonlinear;
-    p.diffuse_reflectance = param(diffuse);
-    p.specular_reflectance = param(specular);
+    p.diffuse_reflectance = diffuse;
+    p.specular_reflectance = specular;
     p.eta = int_ior / ext_ior;
     p.fdr_int = fresnel_diffuse_reflectance(1.f / p.eta);
     float d = average(diffuse), s = average(specular);
@@ -55,7 +61,7 @@ struct SmoothPlasticBsdf {
     if (!(wo.z > 0.f) || !(wi.z > 0.f)) return {};
     float Fo = fresnel_dielectric(wo.z, eta).F, Fi = fresnel_dielectric(wi.z, eta).F;
     float scale = (1.f - Fo) * (1.f - Fi) / (eta * eta) * kInvPi;
-    Color rho = diffuse_reflectance.eval();
+    Color rho = diffuse_reflectance;
     if (!nonlinear) return rho * (scale / (1.f - fdr_int));
     return {rho.x * scale / (1.f - rho.x * fdr_int), rho.y * scale / (1.f - rho.y * fdr_int),
             rho.z * scale / (1.f - rho.z * fdr_int)};
@@ -74,7 +80,7 @@ struct SmoothPlasticBsdf {
       s.wi = {-wo.x, -wo.y, wo.z};
       s.pdf = ps;
       s.delta = true;
-      s.weight = specular_reflectance.eval() * (Fo / ps);
+      s.weight = specular_reflectance * (Fo / ps);
       s.valid = true;
       return s;
     }

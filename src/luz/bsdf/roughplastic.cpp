@@ -75,8 +75,8 @@ RoughPlasticBsdf RoughPlasticBsdf::make(MicrofacetType t, float alpha, Color dif
   p.distribution = t;
   p.alpha = alpha;
   p.eta = int_ior / ext_ior;
-  p.diffuse_reflectance = param(diffuse);
-  p.specular_reflectance = param(specular);
+  p.diffuse_reflectance = diffuse;
+  p.specular_reflectance = specular;
   p.nonlinear = nonlinear;
   float dm = average(diffuse), sm = average(specular);
   p.specular_sampling_weight = dm + sm > 0.f ? sm / (dm + sm) : 0.5f;

@@ -65,12 +65,18 @@ double rough_coat_internal_reflectance(MicrofacetType t, float alpha, float eta)
 
 struct RoughPlasticBsdf {
   static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::DiffuseReflectance ? &diffuse_reflectance :
+           p == BsdfParam::SpecularReflectance ? &specular_reflectance : nullptr;
+  }
+  LUZ_INLINE float* float_param(BsdfParam) { return nullptr; }
   static constexpr int kTableSize = 64;
 
   MicrofacetType distribution = MicrofacetType::Beckmann;
   float alpha = 0.1f;  // a constant, as in Mitsuba: the tables depend on it
   float eta = 1.49f / 1.000277f;
-  Param diffuse_reflectance, specular_reflectance;
+  Color diffuse_reflectance, specular_reflectance;
   float specular_sampling_weight = 0.5f;
   float internal_reflectance = 0.f;  // R_int (capped, see above)
   bool nonlinear = false;
@@ -104,9 +110,9 @@ struct RoughPlasticBsdf {
     float D = d.D(h);
     if (D > 0.f) {
       float F = fresnel_dielectric(dot(wo, h), eta).F;
-      v = specular_reflectance.eval() * (F * D * d.G2(wo, wi, h) / (4.f * wo.z * wi.z));
+      v = specular_reflectance * (F * D * d.G2(wo, wi, h) / (4.f * wo.z * wi.z));
     }
-    Color rho = diffuse_reflectance.eval();
+    Color rho = diffuse_reflectance;
     Color denom = nonlinear ? Color{1.f, 1.f, 1.f} - rho * internal_reflectance
                             : Color{1.f, 1.f, 1.f} * (1.f - internal_reflectance);
     float scale = external_transmittance(wo.z) * external_transmittance(wi.z) * kInvPi / (eta * eta);

@@ -32,20 +32,29 @@ enum class WardVariant : uint32_t { Ward, WardDuer, Balanced };
 
 struct WardBsdf {
   static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::DiffuseReflectance ? &diffuse_reflectance :
+           p == BsdfParam::SpecularReflectance ? &specular_reflectance : nullptr;
+  }
+  LUZ_INLINE float* float_param(BsdfParam p) {
+    return p == BsdfParam::AlphaU ? &alpha_u :
+           p == BsdfParam::AlphaV ? &alpha_v : nullptr;
+  }
   WardVariant variant = WardVariant::Balanced;
-  Param diffuse_reflectance, specular_reflectance;
-  ScalarParam alpha_u, alpha_v;
+  Color diffuse_reflectance, specular_reflectance;
+  float alpha_u = 0.f, alpha_v = 0.f;
 
   LUZ_INLINE MicrofacetDistribution dist() const {
-    return MicrofacetDistribution::make(MicrofacetType::Beckmann, alpha_u.eval(), alpha_v.eval());
+    return MicrofacetDistribution::make(MicrofacetType::Beckmann, alpha_u, alpha_v);
   }
   LUZ_INLINE float specular_probability() const {
-    float d = average(diffuse_reflectance.eval()), s = average(specular_reflectance.eval());
+    float d = average(diffuse_reflectance), s = average(specular_reflectance);
     return d + s > 0.f ? s / (d + s) : 0.f;
   }
   LUZ_INLINE Color f(Vec3 wo, Vec3 wi) const {
     if (!(wo.z > 0.f) || !(wi.z > 0.f)) return {};
-    float au = max(alpha_u.eval(), 1e-4f), av = max(alpha_v.eval(), 1e-4f);
+    float au = max(alpha_u, 1e-4f), av = max(alpha_v, 1e-4f);
     Vec3 h = wo + wi;
     float e = expf(-(sqr(h.x / au) + sqr(h.y / av)) / sqr(h.z));
     float spec;
@@ -55,7 +64,7 @@ struct WardBsdf {
       spec = e / (4.f * kPi * au * av * wo.z * wi.z);
     else
       spec = e * dot(h, h) / (kPi * au * av * sqr(sqr(h.z)));
-    return diffuse_reflectance.eval() * kInvPi + specular_reflectance.eval() * spec;
+    return diffuse_reflectance * kInvPi + specular_reflectance * spec;
   }
   LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
     if (!(wo.z > 0.f) || !(wi.z > 0.f)) return 0.f;

@@ -177,8 +177,8 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       return;
     }
 
-    BsdfScratch textured;  // filled only for a textured material
-    const Bsdf& bsdf = scene.material(it, hit, textured);
+    Bsdf textured{Uninitialized{}};  // written only for a textured material
+    const Bsdf& bsdf = scene.bsdf(it, hit, textured);
     Frame frame = Frame::from_normal(it.ns);
     Vec3 wo = frame.to_local(-ray.d);
     // Rays leaving this vertex start on the side of the geometric surface

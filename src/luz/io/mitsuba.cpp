@@ -5,9 +5,10 @@
 // phong, blinnphong (Luz's own), conductor,
 // roughconductor, dielectric, roughdielectric, thindielectric, plastic,
 // roughplastic, ward (ward, ward-duer, balanced), blendbsdf, twosided (one or
-// two nested bsdfs), bitmap textures as the reflectance of diffuse, plastic
-// and roughplastic, and bumpmap (accepted with a warning: the bump is not
-// applied). Anything else is an error naming file and line: a renderer that
+// two nested bsdfs), textures (bitmap: 8-bit and float images;
+// checkerboard) on every colour and float parameter of every bsdf and on the
+// blend weight (nested, or top-level with an id and <ref name=...>), and
+// bumpmap (accepted with a warning: the bump is not applied). Anything else is an error naming file and line: a renderer that
 // silently ignores what it does not know renders the wrong image.
 //
 // Scenes of Mitsuba 0.5/0.6 (version < 2.0) name parameters in camelCase:
@@ -126,6 +127,11 @@ class MitsubaParser {
         have_sensor = true;
       } else if (tag == "bsdf") {
         parse_bsdf(n);
+      } else if (tag == "texture") {
+        const std::string id = n.attribute("id").value();
+        if (id.empty()) error(n, "a top-level <texture> needs an id");
+        if (textures_.count(id) || bsdfs_.count(id)) error(n, "duplicate id '" + id + "'");
+        textures_[id] = uint32_t(parse_texture(n, true));
       } else if (tag == "shape") parse_shape(n);
       else if (tag == "emitter") parse_emitter(n);
       else error(n, "unsupported element <" + tag + ">");
@@ -261,7 +267,7 @@ class MitsubaParser {
     Props(const MitsubaParser* parser, pugi::xml_node node) : p(parser), owner(node) {
       for (pugi::xml_node c : node.children()) {
         if (c.type() != pugi::node_element) continue;
-        if (!kPropertyTags.count(c.name())) continue;
+        if (!kPropertyTags.count(c.name()) && !p->is_texture_ref(c)) continue;
         std::string name = p->param_name(c);
         if (by_name.count(name)) p->error(c, "parameter '" + name + "' given twice");
         by_name[name] = c;
@@ -337,7 +343,7 @@ class MitsubaParser {
   // Nested plugin children (everything that is not a property).
   void check_children(pugi::xml_node n, std::initializer_list<const char*> allowed) const {
     for (pugi::xml_node c : n.children()) {
-      if (c.type() != pugi::node_element || kPropertyTags.count(c.name())) continue;
+      if (c.type() != pugi::node_element || kPropertyTags.count(c.name()) || is_texture_ref(c)) continue;
       bool ok = false;
       for (const char* a : allowed) ok = ok || std::string(c.name()) == a;
       if (!ok) error(c, "<" + std::string(c.name()) + "> is not allowed inside <" + n.name() + ">");
@@ -583,15 +589,27 @@ class MitsubaParser {
     error(n, "unknown distribution '" + d + "' (supported: beckmann, ggx)");
   }
   // Mitsuba 3: `alpha` (isotropic), or `alpha_u` and `alpha_v`; default 0.1.
-  void roughness(pugi::xml_node n, Props& p, float& au, float& av) {
+  // Textures may drive them (bound to AlphaU / AlphaV in *tb; their zero
+  // texels act as the microfacet models' least roughness, 1e-4) unless tb is
+  // null: then a texture is an error.
+  void roughness(pugi::xml_node n, Props& p, float& au, float& av, std::vector<TextureBinding>* tb) {
     p.get_bool("sample_visible", true);  // a sampling strategy only: the image's expectation is the same
     bool iso = p.has("alpha"), aniso = p.has("alpha_u") || p.has("alpha_v");
     if (iso && aniso) error(n, "give either 'alpha' or 'alpha_u' and 'alpha_v', not both");
     if (aniso && !(p.has("alpha_u") && p.has("alpha_v"))) error(n, "'alpha_u' and 'alpha_v' must be given together");
-    double a = p.get_float("alpha", 0.1), u = p.get_float("alpha_u", a), v = p.get_float("alpha_v", a);
-    if (!(u > 0) || !(v > 0)) error(n, "roughness (alpha, alpha_u, alpha_v) must be positive");
-    au = float(u);
-    av = float(v);
+    for (const char* name : {"alpha", "alpha_u", "alpha_v"}) {
+      auto it = p.by_name.find(name);
+      if (!tb && it != p.by_name.end() && (std::string(it->second.name()) == "texture" || std::string(it->second.name()) == "ref"))
+        error(it->second, std::string("'") + name + "' cannot take a texture here (a constant roughness, as in Mitsuba 3)");
+    }
+    std::vector<TextureBinding> none;
+    std::vector<TextureBinding>& b = tb ? *tb : none;
+    const size_t before = b.size();
+    float a = float_param(n, p, "alpha", 0.1f, {BsdfParam::AlphaU, BsdfParam::AlphaV}, b);
+    au = iso ? a : float_param(n, p, "alpha_u", 0.1f, {BsdfParam::AlphaU}, b);
+    av = iso ? a : float_param(n, p, "alpha_v", 0.1f, {BsdfParam::AlphaV}, b);
+    if (b.size() == before && (!(au > 0.f) || !(av > 0.f)))
+      error(n, "roughness (alpha, alpha_u, alpha_v) must be positive");
   }
   // An index of refraction: a number or one of Mitsuba's named presets.
   float ior(pugi::xml_node n, Props& p, const char* name, const char* def) {
@@ -616,12 +634,12 @@ class MitsubaParser {
   // Conductor: `material` preset, or `eta` and `k` (Mitsuba 3: default
   // material "none", the perfect mirror; eta defaults to 0 and k to 1 when
   // only one is given).
-  void conductor_ior(pugi::xml_node n, Props& p, Color& eta, Color& k) {
+  void conductor_ior(pugi::xml_node n, Props& p, Color& eta, Color& k, std::vector<TextureBinding>& tb) {
     bool explicit_ior = p.has("eta") || p.has("k");
     if (explicit_ior && p.has("material")) error(n, "give either 'material' or 'eta' and 'k', not both");
     if (explicit_ior) {
-      eta = p.get_color("eta", {0.f, 0.f, 0.f});
-      k = p.get_color("k", {1.f, 1.f, 1.f});
+      eta = color_param(n, p, "eta", {0.f, 0.f, 0.f}, BsdfParam::Eta, false, tb);
+      k = color_param(n, p, "k", {1.f, 1.f, 1.f}, BsdfParam::K, false, tb);
       for (int c = 0; c < 3; ++c)
         if (eta[c] < 0.f || k[c] < 0.f) error(n, "conductor 'eta' and 'k' must not be negative");
       return;
@@ -633,25 +651,37 @@ class MitsubaParser {
       error(n, "unknown conductor material '" + m + "' (supported: " + names + ")");
     }
   }
-  void check_sum(pugi::xml_node n, Color kd, Color ks) {
-    for (int k = 0; k < 3; ++k)
-      if (kd[k] + ks[k] > 1.f)
-        error(n, "diffuse_reflectance + specular_reflectance > 1: the material would create energy");
-  }
+  // A bsdf as parsed: the BSDF with its constant parameters and the textures
+  // that drive the others (a textured parameter holds the texture's mean).
+  struct ParsedBsdf {
+    Bsdf bsdf;
+    std::vector<TextureBinding> bindings;
+  };
 
   // One bsdf element (or a <ref> to one) nested in another.
-  Bsdf nested_bsdf(pugi::xml_node c) {
-    return std::string(c.name()) == "ref" ? scene_.materials[resolve_ref(c)] : parse_bsdf_value(c);
+  ParsedBsdf nested_bsdf(pugi::xml_node c) {
+    if (std::string(c.name()) != "ref") return parse_bsdf_value(c);
+    const Material& m = scene_.materials[resolve_ref(c)];
+    const auto first = scene_.texture_bindings.begin() + std::ptrdiff_t(m.first_binding);
+    return {m.bsdf, std::vector<TextureBinding>(first, first + std::ptrdiff_t(m.num_bindings))};
   }
+  // The bsdfs nested in n (<ref>s to textures are parameters, not bsdfs).
   std::vector<pugi::xml_node> nested_bsdf_nodes(pugi::xml_node n) {
     std::vector<pugi::xml_node> inner;
     for (pugi::xml_node c : n.children())
-      if (c.type() == pugi::node_element && (std::string(c.name()) == "bsdf" || std::string(c.name()) == "ref"))
+      if (c.type() == pugi::node_element &&
+          (std::string(c.name()) == "bsdf" || (std::string(c.name()) == "ref" && !is_texture_ref(c))))
         inner.push_back(c);
     return inner;
   }
+  // Moves bindings of one part to another (a nested bsdf becoming a blend's
+  // second or a two-sided back).
+  static void move_part(std::vector<TextureBinding>& b, BsdfPart from, BsdfPart to) {
+    for (TextureBinding& t : b)
+      if (t.part == from) t.part = to;
+  }
 
-  Bsdf parse_bsdf_element(pugi::xml_node n) {
+  ParsedBsdf parse_bsdf_element(pugi::xml_node n) {
     // Nested bsdfs (bumpmap, twosided, blendbsdf) recurse: bound the depth so
     // that a deep nesting is an error rather than a stack overflow.
     struct Depth {
@@ -666,13 +696,12 @@ class MitsubaParser {
       // author is told so once per bumpmap.
       check_children(n, {"bsdf", "ref"});
       Props p(this, n);
-      pugi::xml_node map = p.get("map", {"texture"});
-      if (!map) error(n, "bumpmap needs a <texture name=\"map\">");
-      parse_bitmap(map, false);
+      if (!p.has("map")) error(n, "bumpmap needs a <texture name=\"map\">");
+      texture_param(p, "map", false);
       p.check_all_used();
       std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
       if (inner.size() != 1) error(n, "bumpmap needs exactly one nested bsdf");
-      Bsdf b = nested_bsdf(inner[0]);
+      ParsedBsdf b = nested_bsdf(inner[0]);
       std::fprintf(stderr, "%s:%d: warning: bumpmap ignored: its nested bsdf is used without the bump\n",
                    path_.c_str(), line(n));
       return b;
@@ -685,80 +714,101 @@ class MitsubaParser {
       p.check_all_used();
       std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
       if (inner.size() != 1 && inner.size() != 2) error(n, "twosided needs one or two nested bsdfs");
-      Bsdf sides[2];
+      ParsedBsdf sides[2];
       for (size_t i = 0; i < inner.size(); ++i) {
         if (std::string(inner[i].name()) == "bsdf" && attr(inner[i], "type") == "twosided")
           error(inner[i], "twosided cannot wrap another twosided");
         sides[i] = nested_bsdf(inner[i]);
-        if (sides[i].has_back) error(inner[i], "twosided cannot wrap another twosided");
+        if (sides[i].bsdf.has_back) error(inner[i], "twosided cannot wrap another twosided");
         // Mitsuba 3's twosided refuses transmissive materials ("Only materials
         // without a transmission component can be nested!"): dielectrics are
         // two-sided by nature.
-        if (sides[i].has_transmission())
+        if (sides[i].bsdf.has_transmission())
           error(inner[i], "twosided cannot wrap a material that transmits light (a dielectric)");
       }
       if (inner.size() == 1) {
-        sides[0].two_sided = true;
+        sides[0].bsdf.two_sided = true;
         return sides[0];
       }
-      if (sides[1].blend)
+      if (sides[1].bsdf.blend)
         error(inner[1], "a blendbsdf as the back side of a twosided is not supported (only as the front)");
-      if (sides[1].texture >= 0)
-        error(inner[1], "a textured bsdf as the back side of a twosided is not supported (only as the front)");
-      return Bsdf::make_two_sided(sides[0], sides[1]);
+      ParsedBsdf out{Bsdf::make_two_sided(sides[0].bsdf, sides[1].bsdf), sides[0].bindings};
+      move_part(sides[1].bindings, BsdfPart::Front, BsdfPart::Back);
+      out.bindings.insert(out.bindings.end(), sides[1].bindings.begin(), sides[1].bindings.end());
+      return out;
     }
     if (type == "blendbsdf") {
       check_children(n, {"bsdf", "ref"});
       Props p(this, n);
-      double w = p.get_float("weight", 0.5);
+      std::vector<TextureBinding> weight_binding;
+      const float w = float_param(n, p, "weight", 0.5f, {}, weight_binding);
       p.check_all_used();
-      if (!(w >= 0 && w <= 1)) error(n, "blendbsdf 'weight' must lie in [0, 1]");
+      if (!(w >= 0.f && w <= 1.f)) error(n, "blendbsdf 'weight' must lie in [0, 1]");
       std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
       if (inner.size() != 2) error(n, "blendbsdf needs exactly two nested bsdfs");
-      Bsdf a = nested_bsdf(inner[0]), b = nested_bsdf(inner[1]);
-      if (a.blend || b.blend) error(n, "a blendbsdf inside a blendbsdf is not supported");
-      if (b.texture >= 0) error(inner[1], "a textured bsdf as the second bsdf of a blendbsdf is not supported");
-      if (a.has_back || b.has_back)
+      ParsedBsdf a = nested_bsdf(inner[0]), b = nested_bsdf(inner[1]);
+      if (a.bsdf.blend || b.bsdf.blend) error(n, "a blendbsdf inside a blendbsdf is not supported");
+      if (a.bsdf.has_back || b.bsdf.has_back)
         error(n, "a twosided with two different bsdfs inside a blendbsdf is not supported");
-      if (a.two_sided != b.two_sided)
+      if (a.bsdf.two_sided != b.bsdf.two_sided)
         error(n, "the two bsdfs of a blendbsdf must both be twosided or both not (wrap the blend in twosided)");
-      return Bsdf::make_blend(a, b, float(w));
+      ParsedBsdf out{Bsdf::make_blend(a.bsdf, b.bsdf, w), a.bindings};
+      move_part(b.bindings, BsdfPart::Front, BsdfPart::Second);
+      out.bindings.insert(out.bindings.end(), b.bindings.begin(), b.bindings.end());
+      for (TextureBinding t : weight_binding) {
+        if (max_component(texture_info_[size_t(t.texture)].max) > 1.f)
+          error(n, "blendbsdf 'weight' texture has texels above 1 (a weight lies in [0, 1])");
+        t.part = BsdfPart::BlendWeight;
+        out.bindings.push_back(t);
+      }
+      return out;
     }
     check_children(n, {});
     Props p(this, n);
-    Bsdf b;
-    int32_t texture = -1;  // a bitmap reflectance (diffuse, plastic, roughplastic)
+    ParsedBsdf out;
+    std::vector<TextureBinding>& tb = out.bindings;
+    Bsdf& b = out.bsdf;
+    auto reflectance = [&](const char* name, Color def, BsdfParam param) {
+      return color_param(n, p, name, def, param, true, tb);
+    };
+    // Phong-like sums: k_d + k_s ≤ 1 wherever the textures reach (their maxima).
+    auto check_sum = [&](Color kd, Color ks) {
+      const Color dmax = texture_max(tb, BsdfParam::DiffuseReflectance, kd),
+                  smax = texture_max(tb, BsdfParam::SpecularReflectance, ks);
+      for (int k = 0; k < 3; ++k)
+        if (dmax[k] + smax[k] > 1.f)
+          error(n, "diffuse_reflectance + specular_reflectance > 1: the material would create energy");
+    };
     if (type == "diffuse") {
-      Color rho;
-      texture = reflectance_or_texture(n, p, "reflectance", {0.5f, 0.5f, 0.5f}, rho);
-      b = Bsdf::make_diffuse(rho, false);
+      b = Bsdf::make_diffuse(reflectance("reflectance", {0.5f, 0.5f, 0.5f}, BsdfParam::Reflectance), false);
     } else if (type == "phong" || type == "blinnphong") {  // the same parameters (Mitsuba 0.6's)
-      Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
-      Color ks = checked_reflectance(n, p, "specular_reflectance", {0.2f, 0.2f, 0.2f});
-      double e = p.get_float("exponent", 30.0);
-      if (!(e >= 0)) error(n, "exponent must be ≥ 0");
-      check_sum(n, kd, ks);
-      b = type == "phong" ? Bsdf::make_phong(kd, ks, float(e), false) : Bsdf::make_blinn_phong(kd, ks, float(e), false);
+      Color kd = reflectance("diffuse_reflectance", {0.5f, 0.5f, 0.5f}, BsdfParam::DiffuseReflectance);
+      Color ks = reflectance("specular_reflectance", {0.2f, 0.2f, 0.2f}, BsdfParam::SpecularReflectance);
+      float e = float_param(n, p, "exponent", 30.f, {BsdfParam::Exponent}, tb);
+      if (!(e >= 0.f)) error(n, "exponent must be ≥ 0");
+      check_sum(kd, ks);
+      b = type == "phong" ? Bsdf::make_phong(kd, ks, e, false) : Bsdf::make_blinn_phong(kd, ks, e, false);
     } else if (type == "conductor" || type == "roughconductor") {
       Color eta, k;
-      conductor_ior(n, p, eta, k);
+      conductor_ior(n, p, eta, k, tb);
       // Mitsuba 0.5's extEta: the exterior medium's index; eta and k are relative to it.
       float ext_eta = legacy_names_ ? ior(n, p, "ext_eta", "vacuum") : 1.f;  // not a Mitsuba 3 parameter
+      if (ext_eta != 1.f && !tb.empty()) error(n, "textured 'eta' or 'k' with 'ext_eta' is not supported");
       eta = eta / ext_eta;
       k = k / ext_eta;
-      Color spec = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
+      Color spec = reflectance("specular_reflectance", {1.f, 1.f, 1.f}, BsdfParam::SpecularReflectance);
       if (type == "conductor") {
         b = Bsdf::make_smooth_conductor(eta, k, spec, false);
       } else {
         MicrofacetType d = distribution(n, p);
         float au, av;
-        roughness(n, p, au, av);
+        roughness(n, p, au, av, &tb);
         b = Bsdf::make_rough_conductor(d, au, av, eta, k, spec, false);
       }
     } else if (type == "dielectric" || type == "roughdielectric" || type == "thindielectric") {
       float int_ior = ior(n, p, "int_ior", "bk7"), ext_ior = ior(n, p, "ext_ior", "air");
-      Color r = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
-      Color t = checked_reflectance(n, p, "specular_transmittance", {1.f, 1.f, 1.f});
+      Color r = reflectance("specular_reflectance", {1.f, 1.f, 1.f}, BsdfParam::SpecularReflectance);
+      Color t = reflectance("specular_transmittance", {1.f, 1.f, 1.f}, BsdfParam::SpecularTransmittance);
       if (type == "dielectric") {
         b = Bsdf::make_smooth_dielectric(int_ior, ext_ior, r, t);
       } else if (type == "thindielectric") {
@@ -766,27 +816,26 @@ class MitsubaParser {
       } else {
         MicrofacetType d = distribution(n, p);
         float au, av;
-        roughness(n, p, au, av);
+        roughness(n, p, au, av, &tb);
         if (int_ior == ext_ior) error(n, "roughdielectric needs int_ior != ext_ior (nothing would refract)");
         b = Bsdf::make_rough_dielectric(d, au, av, int_ior, ext_ior, r, t);
       }
     } else if (type == "plastic") {
-      Color kd;
-      texture = reflectance_or_texture(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f}, kd);
-      Color ks = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
+      Color kd = reflectance("diffuse_reflectance", {0.5f, 0.5f, 0.5f}, BsdfParam::DiffuseReflectance);
+      Color ks = reflectance("specular_reflectance", {1.f, 1.f, 1.f}, BsdfParam::SpecularReflectance);
       float int_ior = ior(n, p, "int_ior", "polypropylene"), ext_ior = ior(n, p, "ext_ior", "air");
       bool nonlinear = p.get_bool("nonlinear", false);
       b = Bsdf::make_smooth_plastic(kd, ks, int_ior, ext_ior, false, nonlinear);
     } else if (type == "roughplastic") {
-      Color kd;
-      texture = reflectance_or_texture(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f}, kd);
-      Color ks = checked_reflectance(n, p, "specular_reflectance", {1.f, 1.f, 1.f});
+      Color kd = reflectance("diffuse_reflectance", {0.5f, 0.5f, 0.5f}, BsdfParam::DiffuseReflectance);
+      Color ks = reflectance("specular_reflectance", {1.f, 1.f, 1.f}, BsdfParam::SpecularReflectance);
       float int_ior = ior(n, p, "int_ior", "polypropylene"), ext_ior = ior(n, p, "ext_ior", "air");
       bool nonlinear = p.get_bool("nonlinear", false);
       MicrofacetType d = distribution(n, p);
       float au, av;
-      roughness(n, p, au, av);
-      // As Mitsuba 3: isotropic only, and the two indices must differ.
+      // As Mitsuba 3: a constant roughness (the coat's tables depend on it),
+      // isotropic, and two indices that differ.
+      roughness(n, p, au, av, nullptr);
       if (au != av) error(n, "roughplastic supports isotropic roughness only (alpha_u = alpha_v)");
       if (int_ior == ext_ior) error(n, "roughplastic needs int_ior != ext_ior");
       b = Bsdf::make_rough_plastic(d, au, kd, ks, int_ior, ext_ior, nonlinear, false);
@@ -796,44 +845,45 @@ class MitsubaParser {
       if (v == "ward") variant = WardVariant::Ward;
       else if (v == "ward-duer") variant = WardVariant::WardDuer;
       else if (v != "balanced") error(n, "unknown ward variant '" + v + "' (supported: ward, ward-duer, balanced)");
-      double au = p.get_float("alpha_u", 0.1), av = p.get_float("alpha_v", 0.1);
-      if (!(au > 0) || !(av > 0)) error(n, "roughness (alpha_u, alpha_v) must be positive");
-      Color kd = checked_reflectance(n, p, "diffuse_reflectance", {0.5f, 0.5f, 0.5f});
-      Color ks = checked_reflectance(n, p, "specular_reflectance", {0.2f, 0.2f, 0.2f});
-      check_sum(n, kd, ks);
-      b = Bsdf::make_ward(variant, kd, ks, float(au), float(av), false);
+      float au = float_param(n, p, "alpha_u", 0.1f, {BsdfParam::AlphaU}, tb);
+      float av = float_param(n, p, "alpha_v", 0.1f, {BsdfParam::AlphaV}, tb);
+      if (!(au > 0.f) || !(av > 0.f)) error(n, "roughness (alpha_u, alpha_v) must be positive");
+      Color kd = reflectance("diffuse_reflectance", {0.5f, 0.5f, 0.5f}, BsdfParam::DiffuseReflectance);
+      Color ks = reflectance("specular_reflectance", {0.2f, 0.2f, 0.2f}, BsdfParam::SpecularReflectance);
+      check_sum(kd, ks);
+      b = Bsdf::make_ward(variant, kd, ks, au, av, false);
     } else {
       error(n, "unknown bsdf '" + type +
                    "' (supported: diffuse, phong, blinnphong, conductor, roughconductor, dielectric, "
                    "roughdielectric, thindielectric, plastic, roughplastic, ward, blendbsdf, twosided, bumpmap)");
     }
     p.check_all_used();
-    b.texture = int16_t(texture);
-    return b;
+    return out;
   }
 
   // A bsdf element as a value; one with an id becomes a material that <ref>s
   // name, nested ones too (as in Mitsuba, where the staircase's bumpmap
   // wraps the bsdf its shapes refer to).
-  Bsdf parse_bsdf_value(pugi::xml_node n) {
-    Bsdf b = parse_bsdf_element(n);
+  ParsedBsdf parse_bsdf_value(pugi::xml_node n) {
+    ParsedBsdf b = parse_bsdf_element(n);
     std::string id = n.attribute("id").value();
     if (!id.empty()) {
       if (bsdfs_.count(id)) error(n, "duplicate id '" + id + "'");
-      bsdfs_[id] = scene_.add_material(b);
+      bsdfs_[id] = scene_.add_material(b.bsdf, b.bindings);
     }
     return b;
   }
   uint32_t parse_bsdf(pugi::xml_node n) {
-    Bsdf b = parse_bsdf_value(n);
+    ParsedBsdf b = parse_bsdf_value(n);
     std::string id = n.attribute("id").value();
-    return id.empty() ? scene_.add_material(b) : bsdfs_[id];
+    return id.empty() ? scene_.add_material(b.bsdf, b.bindings) : bsdfs_[id];
   }
 
   // ---- textures ----
-  struct Bitmap {
-    int32_t index = -1;  // in scene_.textures; -1 when only checked
-    Color mean;          // the average linear colour
+  // What the checks of a textured parameter need: its texels' mean, least
+  // and greatest values per channel (one entry per scene_.textures entry).
+  struct TextureInfo {
+    Color mean, min, max;
   };
   // A file named relative to the scene file; it must be a regular file.
   fs::path scene_file(pugi::xml_node n, const std::string& file, const char* what) const {
@@ -844,73 +894,178 @@ class MitsubaParser {
                    "': " + (fs::exists(full, ec) ? "not a regular file" : "no such file"));
     return full;
   }
-  // A <texture type="bitmap">: filename (relative to the scene file),
-  // filter_type, wrap_mode, raw (Mitsuba 3) or gamma (Mitsuba 0.5), uscale,
-  // vscale, uoffset, voffset. With load = false the file is only checked to
-  // exist (a texture that is accepted but not used).
-  Bitmap parse_bitmap(pugi::xml_node t, bool load) {
+  // A texture's to_uv (Mitsuba 3: the upper-left 3×3 of the transform, an
+  // affine map of uv) or Mitsuba 0.5's uscale, vscale, uoffset, voffset.
+  UvTransform uv_transform(pugi::xml_node t, Props& p) {
+    UvTransform m;
+    if (p.has("to_uv")) {
+      const Matrix4 a = p.get_transform("to_uv");
+      if (a.m[2][0] != 0 || a.m[2][1] != 0 || a.m[2][2] != 1)
+        error(t, "to_uv must be an affine map of (u, v): its third row must be 0 0 1");
+      m = {float(a.m[0][0]), float(a.m[0][1]), float(a.m[0][2]), float(a.m[1][0]), float(a.m[1][1]), float(a.m[1][2])};
+    }
+    if (legacy_names_) {
+      const float us = float(p.get_float("uscale", 1.0)), vs = float(p.get_float("vscale", 1.0));
+      m.a *= us, m.b *= us, m.c = m.c * us + float(p.get_float("uoffset", 0.0));
+      m.d *= vs, m.e *= vs, m.f = m.f * vs + float(p.get_float("voffset", 0.0));
+    }
+    for (float v : {m.a, m.b, m.c, m.d, m.e, m.f})
+      if (!std::isfinite(v)) error(t, "to_uv is not finite");
+    return m;
+  }
+  // A <texture>: `bitmap` (filename relative to the scene file; filter_type,
+  // wrap_mode, raw (Mitsuba 3) or gamma (Mitsuba 0.5), to_uv) or
+  // `checkerboard` (color0, color1, to_uv). Returns its index in
+  // scene_.textures; with load = false the texture is only checked (the file
+  // must exist) and -1 returned.
+  int32_t parse_texture(pugi::xml_node t, bool load) {
     std::string type = attr(t, "type");
-    if (type != "bitmap") error(t, "unknown texture '" + type + "' (supported: bitmap)");
+    if (type != "bitmap" && type != "checkerboard")
+      error(t, "unknown texture '" + type + "' (supported: bitmap, checkerboard)");
     check_children(t, {});
     Props p(this, t);
+    const UvTransform to_uv = uv_transform(t, p);
+    TextureInfo info;
+    if (type == "checkerboard") {
+      CheckerboardTexture c;
+      for (const char* name : {"color0", "color1"}) {
+        auto it = p.by_name.find(name);
+        if (it != p.by_name.end() && (std::string(it->second.name()) == "texture" || std::string(it->second.name()) == "ref"))
+          error(it->second, std::string("a texture as the checkerboard's ") + name + " is not supported");
+      }
+      c.color0 = p.get_color("color0", c.color0);
+      c.color1 = p.get_color("color1", c.color1);
+      p.check_all_used();
+      for (Color v : {c.color0, c.color1})
+        if (!is_finite(v) || !(v.x >= 0.f && v.y >= 0.f && v.z >= 0.f))
+          error(t, "checkerboard colours must be finite and not negative");
+      if (!load) return -1;
+      Texture tex(c);
+      tex.to_uv = to_uv;
+      info = {(c.color0 + c.color1) * 0.5f, vmin(c.color0, c.color1), vmax(c.color0, c.color1)};
+      texture_info_.push_back(info);
+      return int32_t(scene_.add_texture(tex));
+    }
     std::string file = p.get_string("filename", "");
     if (file.empty()) error(t, "bitmap texture needs a 'filename'");
-    TextureDesc desc;
+    BitmapTexture bm;
     // Luz has no MIP maps: trilinear (Mitsuba 0.5's choice for the staircase)
     // is looked up bilinearly at the finest level. The two differ only where
     // a texel is smaller than a pixel's footprint, and there the many samples
     // per pixel average the texels that trilinear filtering would pre-average.
     std::string filter = p.get_string("filter_type", "bilinear");
-    if (filter == "nearest") desc.filter = TextureFilter::Nearest;
+    if (filter == "nearest") bm.filter = TextureFilter::Nearest;
     else if (filter != "bilinear" && filter != "trilinear" && filter != "ewa")  // ewa: Mitsuba 0.5's default, as trilinear
       error(t, "unknown filter_type '" + filter + "' (supported: bilinear, trilinear, ewa, nearest)");
     std::string wrap = p.get_string("wrap_mode", "repeat");
-    if (wrap != "repeat") error(t, "wrap_mode '" + wrap + "' is not supported (repeat)");
-    desc.srgb = !p.get_bool("raw", false);
+    if (wrap == "mirror") bm.wrap = WrapMode::Mirror;
+    else if (wrap == "clamp") bm.wrap = WrapMode::Clamp;
+    else if (wrap != "repeat") error(t, "unknown wrap_mode '" + wrap + "' (supported: repeat, mirror, clamp)");
+    bm.srgb = !p.get_bool("raw", false);
     double gamma = legacy_names_ ? p.get_float("gamma", -1.0) : -1.0;  // Mitsuba 3 has `raw` instead
-    if (gamma == 1.0) desc.srgb = false;
+    if (gamma == 1.0) bm.srgb = false;
     else if (gamma != -1.0) error(t, "bitmap gamma must be -1 (sRGB) or 1 (linear)");
-    desc.scale = {float(p.get_float("uscale", 1.0)), float(p.get_float("vscale", 1.0))};
-    desc.shift = {float(p.get_float("uoffset", 0.0)), float(p.get_float("voffset", 0.0))};
     p.check_all_used();
     const fs::path full = scene_file(t, file, "bitmap");
-    Bitmap out;
-    if (!load) return out;
-    Image8 img;
+    if (!load) return -1;
+    double sum[3] = {0, 0, 0};
+    info.min = {INFINITY, INFINITY, INFINITY};
+    info.max = {0.f, 0.f, 0.f};
+    auto account = [&](Color c) {
+      for (int k = 0; k < 3; ++k) sum[k] += c[k];
+      info.min = vmin(info.min, c);
+      info.max = vmax(info.max, c);
+    };
+    int32_t index = -1;
+    size_t texels = 0;
     try {
-      img = read_image8(full.string());
+      const std::string ext = lower_extension(full);
+      if (ext == ".exr" || ext == ".hdr" || ext == ".pfm") {
+        // Float texels, linear: `raw` changes nothing.
+        Image img = read_image_linear(full.string());
+        texels = size_t(img.width) * size_t(img.height);
+        for (size_t k = 0; k < texels; ++k) {
+          const Color c{img.rgb[3 * k], img.rgb[3 * k + 1], img.rgb[3 * k + 2]};
+          if (!is_finite(c) || c.x < 0.f || c.y < 0.f || c.z < 0.f)
+            error(t, "bitmap '" + file + "': texel (" + std::to_string(k % size_t(img.width)) + ", " +
+                         std::to_string(k / size_t(img.width)) + ") is negative or not finite");
+          account(c);
+        }
+        bm.width = uint32_t(img.width), bm.height = uint32_t(img.height);
+        index = int32_t(scene_.add_bitmap(bm, to_uv, img.rgb));
+      } else {
+        Image8 img = read_image8(full.string());
+        bm.width = uint32_t(img.width), bm.height = uint32_t(img.height);
+        index = int32_t(scene_.add_bitmap(bm, to_uv, img.rgba));
+        texels = img.rgba.size();
+        const float* table = scene_.srgb_table.data();
+        for (uint32_t texel : img.rgba) account(texel_color(texel, bm.srgb, table));
+      }
     } catch (const InputError& e) {
       error(t, e.what());
-    }
-    desc.width = uint32_t(img.width);
-    desc.height = uint32_t(img.height);
-    try {
-      out.index = int32_t(scene_.add_texture(desc, img.rgba));
     } catch (const std::length_error& e) {
       error(t, e.what());
     }
-    double sum[3] = {0, 0, 0};
-    const float* table = scene_.srgb_table.data();
-    for (uint32_t texel : img.rgba) {
-      Color c = texel_color(texel, desc.srgb, table);
-      for (int k = 0; k < 3; ++k) sum[k] += c[k];
-    }
-    for (int k = 0; k < 3; ++k) out.mean[k] = float(sum[k] / double(img.rgba.size()));
-    return out;
+    for (int k = 0; k < 3; ++k) info.mean[k] = float(sum[k] / double(texels));
+    texture_info_.push_back(info);
+    return index;
   }
-  // A reflectance given as a colour or as a nested bitmap: the texture's
-  // index, with its mean colour in `value` (what the models' lobe sampling
-  // weights use, as Mitsuba's getAverage() does), or -1 with the colour
-  // (checked to lie in [0, 1]).
-  int32_t reflectance_or_texture(pugi::xml_node n, Props& p, const char* name, Color def, Color& value) {
+  static std::string lower_extension(const fs::path& f) {
+    std::string e = f.extension().string();
+    for (char& c : e) c = char(std::tolower((unsigned char)c));
+    return e;
+  }
+  // A <ref> naming a top-level texture (a parameter), not a bsdf.
+  bool is_texture_ref(pugi::xml_node c) const {
+    return std::string(c.name()) == "ref" && c.attribute("name") && textures_.count(c.attribute("id").value()) > 0;
+  }
+  // Parameter `name` given as a texture (nested, or a <ref> to a top-level
+  // one): its index, or -1 when the parameter is absent or a constant.
+  int32_t texture_param(Props& p, const char* name, bool load = true) {
     auto it = p.by_name.find(name);
-    if (it != p.by_name.end() && std::string(it->second.name()) == "texture") {
-      Bitmap b = parse_bitmap(p.get(name, {"texture"}), true);
-      value = b.mean;
-      return b.index;
+    if (it == p.by_name.end()) return -1;
+    const std::string tag = it->second.name();
+    if (tag == "ref") {
+      p.get(name, {"ref"});
+      return int32_t(textures_.at(it->second.attribute("id").value()));
     }
-    value = checked_reflectance(n, p, name, def);
-    return -1;
+    if (tag != "texture") return -1;
+    return parse_texture(p.get(name, {"texture"}), load);
+  }
+  // A colour parameter of a bsdf: a constant (a reflectance checked to lie
+  // in [0, 1]), or a texture, bound to `param` of the front part, whose mean
+  // is returned (what the models' lobe sampling weights use, as Mitsuba's
+  // mean()); a reflectance's texels must not exceed 1.
+  Color color_param(pugi::xml_node n, Props& p, const char* name, Color def, BsdfParam param, bool is_reflectance,
+                    std::vector<TextureBinding>& tb) {
+    const int32_t t = texture_param(p, name);
+    if (t < 0) {
+      if (is_reflectance) return checked_reflectance(n, p, name, def);
+      return p.get_color(name, def);
+    }
+    const TextureInfo& info = texture_info_[size_t(t)];
+    if (is_reflectance && max_component(info.max) > 1.f)
+      error(n, std::string("'") + name + "' texture has texels above 1 (a reflectance lies in [0, 1])");
+    tb.push_back({t, BsdfPart::Front, param});
+    return info.mean;
+  }
+  // A float parameter: a number, or a texture (its luminance, Mitsuba's
+  // eval_1) bound to each of `params` of the front part; returns the
+  // number, or the texture's mean luminance.
+  float float_param(pugi::xml_node n, Props& p, const char* name, float def, std::initializer_list<BsdfParam> params,
+                    std::vector<TextureBinding>& tb) {
+    (void)n;
+    const int32_t t = texture_param(p, name);
+    if (t < 0) return float(p.get_float(name, def));
+    for (BsdfParam q : params) tb.push_back({t, BsdfPart::Front, q});
+    if (params.size() == 0) tb.push_back({t, BsdfPart::Front, BsdfParam::Reflectance});  // the caller re-targets it
+    return luminance(texture_info_[size_t(t)].mean);
+  }
+  // A colour parameter's greatest value: its texture's maximum when bound, else v.
+  Color texture_max(const std::vector<TextureBinding>& tb, BsdfParam param, Color v) const {
+    for (const TextureBinding& t : tb)
+      if (t.part == BsdfPart::Front && t.param == param) return texture_info_[size_t(t.texture)].max;
+    return v;
   }
 
   uint32_t resolve_ref(pugi::xml_node r) {
@@ -1068,7 +1223,7 @@ class MitsubaParser {
 
     // Textures need texture coordinates: rectangles and OBJ meshes with vt have them.
     // Only a textured shape keeps them (see read_obj).
-    const bool textured = scene_.materials[size_t(material)].texture >= 0;
+    const bool textured = scene_.materials[size_t(material)].num_bindings > 0;
     auto refuse_texture = [&](const char* why) {
       if (textured) error(n, std::string("a textured bsdf on ") + why);
     };
@@ -1159,6 +1314,8 @@ class MitsubaParser {
   std::string text_;
   pugi::xml_document doc_;
   std::map<std::string, uint32_t> bsdfs_;
+  std::map<std::string, uint32_t> textures_;  // top-level <texture id>, by id
+  std::vector<TextureInfo> texture_info_;     // one per scene_.textures entry
   Scene scene_;
   bool legacy_names_ = false;  // a Mitsuba 0.5/0.6 scene: camelCase parameter names
   int bsdf_depth_ = 0;

@@ -65,20 +65,42 @@ void Scene::add_sphere(Vec3 center, float radius, uint32_t material, const Color
   spheres.push_back(s);
 }
 
-uint32_t Scene::add_material(const Bsdf& b) {
-  materials.push_back(b);
+uint32_t Scene::add_material(const Bsdf& b, const std::vector<TextureBinding>& bindings) {
+  Material m;
+  m.bsdf = b;
+  m.first_binding = uint32_t(texture_bindings.size());
+  m.num_bindings = uint32_t(bindings.size());
+  texture_bindings.insert(texture_bindings.end(), bindings.begin(), bindings.end());
+  materials.push_back(m);
   return uint32_t(materials.size() - 1);
 }
 
-uint32_t Scene::add_texture(TextureDesc desc, const std::vector<uint32_t>& image) {
+uint32_t Scene::add_texture(const Texture& t) {
+  if (textures.size() >= size_t(INT32_MAX)) throw std::length_error("more than 2^31 textures");
+  textures.push_back(t);
+  return uint32_t(textures.size() - 1);
+}
+
+uint32_t Scene::add_bitmap(BitmapTexture bitmap, const UvTransform& to_uv, const std::vector<uint32_t>& rgba8) {
   if (srgb_table.empty())
     for (int k = 0; k < 256; ++k) srgb_table.push_back(float(srgb_to_linear(k / 255.0)));
-  if (textures.size() >= 32767) throw std::length_error("more than 32767 bitmap textures");
-  if (texels.size() + image.size() > size_t(UINT32_MAX)) throw std::length_error("more than 2^32 texels in all textures");
-  desc.offset = uint32_t(texels.size());
-  texels.insert(texels.end(), image.begin(), image.end());
-  textures.push_back(desc);
-  return uint32_t(textures.size() - 1);
+  if (texels8.size() + rgba8.size() > size_t(UINT32_MAX)) throw std::length_error("more than 2^32 8-bit texels in all textures");
+  bitmap.offset = uint32_t(texels8.size());
+  bitmap.is_float = false;
+  texels8.insert(texels8.end(), rgba8.begin(), rgba8.end());
+  Texture t(bitmap);
+  t.to_uv = to_uv;
+  return add_texture(t);
+}
+
+uint32_t Scene::add_bitmap(BitmapTexture bitmap, const UvTransform& to_uv, const std::vector<float>& rgb) {
+  if (texelsf.size() / 3 + rgb.size() / 3 > size_t(UINT32_MAX)) throw std::length_error("more than 2^32 float texels in all textures");
+  bitmap.offset = uint32_t(texelsf.size() / 3);
+  bitmap.is_float = true;
+  texelsf.insert(texelsf.end(), rgb.begin(), rgb.end());
+  Texture t(bitmap);
+  t.to_uv = to_uv;
+  return add_texture(t);
 }
 
 namespace {
@@ -269,12 +291,14 @@ SceneView Scene::view() const {
   v.num_triangles = num_triangles();
   v.spheres = spheres.data();
   v.num_spheres = uint32_t(spheres.size());
-  v.materials = materials.data();
-  v.num_materials = uint32_t(materials.size());
-  v.textures = textures.data();
-  v.texels = texels.data();
-  v.srgb_table = srgb_table.data();
-  v.num_textures = uint32_t(textures.size());
+  v.materials.list = materials.data();
+  v.materials.bindings = texture_bindings.data();
+  v.materials.count = uint32_t(materials.size());
+  v.textures.list = textures.data();
+  v.textures.texels8 = texels8.data();
+  v.textures.texelsf = texelsf.data();
+  v.textures.srgb_table = srgb_table.data();
+  v.textures.count = uint32_t(textures.size());
   v.lights.list = lights.data();
   v.lights.num_lights = uint32_t(lights.size());
   v.lights.environment = environment;

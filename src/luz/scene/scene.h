@@ -28,12 +28,15 @@ struct Scene {
   std::vector<uint32_t> tri_material;
   std::vector<int32_t> tri_emitter;
   std::vector<Sphere> spheres;
-  std::vector<Bsdf> materials;
+  std::vector<Material> materials;
+  std::vector<TextureBinding> texture_bindings;  // Material::first_binding indexes it
   std::vector<Light> lights;  // area lights (named by tri_emitter, Sphere::emitter), then the others
-  // Bitmap textures (texture.h): descriptors, all texels back to back, and
-  // the sRGB decoding table (filled by the first add_texture).
-  std::vector<TextureDesc> textures;
-  std::vector<uint32_t> texels;
+  // Textures (texture.h): the list, all 8-bit texels back to back, all float
+  // texels (3 per texel) back to back, and the sRGB decoding table (filled by
+  // the first 8-bit bitmap).
+  std::vector<Texture> textures;
+  std::vector<uint32_t> texels8;
+  std::vector<float> texelsf;
   std::vector<float> srgb_table;
   Camera camera;
   RenderSettings settings;
@@ -53,10 +56,15 @@ struct Scene {
   void add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
                 uint32_t material, const Color* emission, const std::vector<Vec2>& uv = {});
   void add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip);
-  uint32_t add_material(const Bsdf& b);
-  // Appends a texture's width · height RGBA8 texels (rows top to bottom);
-  // desc.offset is set here. Returns the texture's index.
-  uint32_t add_texture(TextureDesc desc, const std::vector<uint32_t>& image);
+  // A material: the BSDF with its constant parameters, and the textures
+  // driving the others. Returns its index.
+  uint32_t add_material(const Bsdf& b, const std::vector<TextureBinding>& bindings = {});
+  // Appends a bitmap's width · height texels (rows top to bottom: packed RGBA8
+  // or 3 floats each); bitmap.offset and is_float are set here. Returns the
+  // texture's index. Throws std::length_error past the texel arrays' limits.
+  uint32_t add_bitmap(BitmapTexture bitmap, const UvTransform& to_uv, const std::vector<uint32_t>& rgba8);
+  uint32_t add_bitmap(BitmapTexture bitmap, const UvTransform& to_uv, const std::vector<float>& rgb);
+  uint32_t add_texture(const Texture& t);
 
   // Bounds, emitter selection table, triangle normals; call after loading,
   // before rendering, and again after any change to the geometry (view()

@@ -3,28 +3,11 @@
 // queries lives here.
 #pragma once
 
-#include <new>
-#include <type_traits>
-
-#include "luz/bsdf/bsdf.h"
 #include "luz/camera/camera.h"
 #include "luz/light/light_sampler.h"
-#include "luz/texture/texture.h"
+#include "luz/material/material.h"
 
 namespace luz {
-
-// Room for a textured material's resolved copy (SceneView::material). A
-// union with an empty constructor: declaring one on every path vertex costs
-// nothing (a Bsdf's default constructor would store its defaults each time);
-// the copy is placement-new'ed into it when used, which starts the member's
-// lifetime (Bsdf's default member initialisers make it non-trivial to default
-// construct, so a plain assignment would not).
-union BsdfScratch {
-  Bsdf bsdf;
-  LUZ_INLINE BsdfScratch() {}
-};
-static_assert(std::is_trivially_copyable_v<Bsdf> && std::is_trivially_destructible_v<Bsdf>,
-              "BsdfScratch neither destroys its Bsdf nor copies it member-wise");
 
 // The lights, as the integrator reaches them: by index (a surface's
 // Interaction::emitter names its area light), the environment, and the
@@ -57,14 +40,8 @@ struct SceneView {
   const Sphere* spheres = nullptr;
   uint32_t num_spheres = 0;
 
-  const Bsdf* materials = nullptr;
-  uint32_t num_materials = 0;
-
-  // Bitmap textures (texture.h), referenced by Bsdf::texture.
-  const TextureDesc* textures = nullptr;
-  const uint32_t* texels = nullptr;
-  const float* srgb_table = nullptr;  // 256 entries
-  uint32_t num_textures = 0;
+  MaterialsView materials;
+  TextureView textures;
 
   LightsView lights;
 
@@ -127,12 +104,8 @@ struct SceneView {
     return {t0.x * b0 + t1.x * hit.u + t2.x * hit.v, t0.y * b0 + t1.y * hit.u + t2.y * hit.v};
   }
 
-  LUZ_INLINE Color texture_value(uint32_t t, Vec2 uv) const {
-    return texture_lookup(textures[t], texels, srgb_table, uv);
-  }
-
-  // Starts fetching the texels a textured material will read at this hit
-  // (texture_prefetch), so that their cache miss overlaps the previous
+  // Starts fetching the texels the material at this hit will read first
+  // (TextureView::prefetch), so that their cache miss overlaps the previous
   // vertex's shadow ray, which path_li traces before shading this hit. No
   // effect on any result; nothing on the GPU. Forced inline: GCC 12 finds a
   // function whose only effect is a prefetch free of side effects and drops
@@ -140,22 +113,22 @@ struct SceneView {
   LUZ_FORCE_INLINE void prefetch_texture(const Hit& hit) const {
 #if !defined(__CUDA_ARCH__)
     if (hit.kind != PrimKind::Triangle) return;
-    const int32_t t = materials[tri_material[hit.prim]].texture;
-    if (t >= 0) texture_prefetch(textures[t], texels, hit_uv(hit));
+    const int32_t t = materials.first_texture(tri_material[hit.prim]);
+    if (t >= 0) textures.prefetch(uint32_t(t), hit_uv(hit));
 #else
     (void)hit;
 #endif
   }
 
-  // The BSDF at a hit: the material as stored, or, for a textured one, a copy
-  // in `scratch` with the texture's value at the hit filled in. Untextured
-  // materials cost one test here and are never copied.
-  LUZ_FORCE_INLINE const Bsdf& material(const Interaction& it, const Hit& hit, BsdfScratch& scratch) const {
-    const Bsdf& m = materials[it.material];
-    if (m.texture < 0) return m;
-    ::new (static_cast<void*>(&scratch.bsdf)) Bsdf(m);
-    scratch.bsdf.set_textured_reflectance(texture_value(uint32_t(m.texture), hit_uv(hit)));
-    return scratch.bsdf;
+  // The BSDF at a hit: the material's own when no texture drives it (no
+  // copy), else `local`, set to the material's with every textured parameter
+  // evaluated at the hit's texture coordinates.
+  LUZ_FORCE_INLINE const Bsdf& bsdf(const Interaction& it, const Hit& hit, Bsdf& local) const {
+    const Material& m = materials.list[it.material];
+    if (m.num_bindings == 0) return m.bsdf;
+    local = Bsdf::copy_of(m.bsdf);
+    materials.apply_textures(local, m, textures, hit_uv(hit));
+    return local;
   }
 };
 

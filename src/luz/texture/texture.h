@@ -1,14 +1,17 @@
-// Bitmap textures for both devices: one flat array of 8-bit RGBA texels
-// (all textures back to back) and a small descriptor per texture, referenced
-// by index. No containers, no virtuals: SceneView holds plain pointers that
-// are valid on the CPU or copied to the GPU as they are.
+// Textures for both devices: a tagged union over the models (a bitmap of
+// 8-bit or float texels, a checkerboard), the texel arrays they address by
+// offset, and the texture-or-constant parameter that materials and lights
+// hold. No containers, no virtuals: TextureView holds plain pointers that are
+// valid on the CPU or copied to the GPU as they are.
 //
 // Texture coordinates follow Mitsuba: (0, 0) is the top-left corner of the
 // image, u grows to the right, v downward (the OBJ loader flips OBJ's vt.v as
-// Mitsuba's flipTexCoords, on by default, does). Addressing wraps around
-// (Mitsuba's default wrap mode "repeat"). The bilinear filter interpolates
-// between the four texel centres around the point, as Mitsuba's does
-// (texel (i, j) has its centre at ((i + 0.5) / width, (j + 0.5) / height)).
+// Mitsuba's flipTexCoords, on by default, does). A texture's `to_uv` (an
+// affine map, Mitsuba's `to_uv`) is applied first. The bilinear filter
+// interpolates between the four texel centres around the point (texel (i, j)
+// has its centre at ((i + 0.5) / width, (j + 0.5) / height)), the nearest
+// filter takes the texel containing it; texel indices outside the image wrap
+// by the texture's mode (repeat, mirror, clamp), as Mitsuba 3's bitmap does.
 #pragma once
 
 #include "luz/math/vec.h"
@@ -16,16 +19,45 @@
 namespace luz {
 
 enum class TextureFilter : uint32_t { Bilinear, Nearest };
+enum class WrapMode : uint32_t { Repeat, Mirror, Clamp };
 
-struct TextureDesc {
-  uint32_t offset = 0;  // index of the texture's first texel (top-left) in the texel array
+// uv' = (a u + b v + c, d u + e v + f).
+struct UvTransform {
+  float a = 1.f, b = 0.f, c = 0.f, d = 0.f, e = 1.f, f = 0.f;
+  LUZ_INLINE Vec2 apply(Vec2 uv) const { return {a * uv.x + b * uv.y + c, d * uv.x + e * uv.y + f}; }
+};
+
+struct BitmapTexture {
+  uint32_t offset = 0;  // the first (top-left) texel's index in its texel array
   uint32_t width = 0, height = 0;
   TextureFilter filter = TextureFilter::Bilinear;
-  // Texels hold sRGB-encoded values (Mitsuba's default for 8-bit bitmaps),
-  // decoded through the 256-entry table; otherwise linear values · 255.
+  WrapMode wrap = WrapMode::Repeat;
+  // Float RGB texels (OpenEXR, HDR, PFM: TextureView::texelsf, 3 floats
+  // each); otherwise packed 8-bit RGBA (TextureView::texels8), sRGB-encoded
+  // (Mitsuba's default, decoded through the 256-entry table) or, with `raw`,
+  // linear values · 255.
+  bool is_float = false;
   bool srgb = true;
-  // uv' = uv · scale + offset (Mitsuba 0.5's uscale, vscale, uoffset, voffset).
-  Vec2 scale{1.f, 1.f}, shift{0.f, 0.f};
+};
+
+// Mitsuba's `checkerboard`: color0 where exactly one of frac(u), frac(v)
+// exceeds 1/2, color1 elsewhere.
+struct CheckerboardTexture {
+  Color color0{0.4f, 0.4f, 0.4f}, color1{0.2f, 0.2f, 0.2f};
+};
+
+enum class TextureType : uint32_t { Bitmap, Checkerboard };
+
+struct Texture {
+  TextureType type = TextureType::Bitmap;
+  UvTransform to_uv;
+  union {
+    BitmapTexture bitmap;
+    CheckerboardTexture checkerboard;
+  };
+  LUZ_INLINE Texture() : bitmap() {}
+  LUZ_INLINE Texture(const BitmapTexture& m) : type(TextureType::Bitmap), bitmap(m) {}
+  LUZ_INLINE Texture(const CheckerboardTexture& m) : type(TextureType::Checkerboard), checkerboard(m) {}
 };
 
 // R in the low byte, then G, B, A.
@@ -37,14 +69,11 @@ LUZ_INLINE uint32_t pack_rgba8(uint32_t r, uint32_t g, uint32_t b, uint32_t a = 
 // for the loader (<srgb> colours) and the 256-entry table texels go through.
 LUZ_INLINE double srgb_to_linear(double v) { return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4); }
 
-// A coordinate brought to [0, 1) by wrapping; a non-finite one reads as 0
-// (it would otherwise become an out-of-range index).
-LUZ_INLINE float wrap_unit(float u) {
-  u -= floorf(u);
-  return u >= 0.f && u < 1.f ? u : 0.f;
-}
+// Rec. 709 luminance: what a float parameter reads from a colour texture
+// (Mitsuba's eval_1 of an RGB bitmap).
+LUZ_INLINE float luminance(Color c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 
-// One texel as linear RGB.
+// One 8-bit texel as linear RGB.
 LUZ_INLINE Color texel_color(uint32_t t, bool srgb, const float* srgb_table) {
   uint32_t r = t & 255u, g = (t >> 8) & 255u, b = (t >> 16) & 255u;
   if (srgb) return {srgb_table[r], srgb_table[g], srgb_table[b]};
@@ -52,67 +81,125 @@ LUZ_INLINE Color texel_color(uint32_t t, bool srgb, const float* srgb_table) {
   return {float(r) * s, float(g) * s, float(b) * s};
 }
 
-// uv with the texture's scale and shift applied, wrapped into [0, 1)².
-LUZ_INLINE Vec2 texture_uv(const TextureDesc& tex, Vec2 uv) {
-  return {wrap_unit(uv.x * tex.scale.x + tex.shift.x), wrap_unit(uv.y * tex.scale.y + tex.shift.y)};
+// A coordinate brought to where the wrap mode keeps texel indices small:
+// [0, 1) for repeat, [0, 2) for mirror (its period), [0, 1] for clamp. A
+// non-finite one reads as 0 (it would otherwise become an out-of-range index).
+LUZ_INLINE float reduce_coordinate(float u, WrapMode m) {
+  if (m == WrapMode::Clamp) return u > 0.f ? (u < 1.f ? u : 1.f) : 0.f;  // NaN -> 0
+  const float period = m == WrapMode::Mirror ? 2.f : 1.f;
+  u -= floorf(u / period) * period;
+  return u >= 0.f && u < period ? u : 0.f;
 }
 
-// The bilinear filter's four texels around uv: columns i0, i1, rows j0, j1
-// (wrapped around), and the weights fx, fy of i1 and j1.
+// A texel index in [-1, 2n] brought into [0, n) by the wrap mode.
+LUZ_INLINE uint32_t wrap_index(int i, uint32_t n, WrapMode m) {
+  const int ni = int(n);
+  if (m == WrapMode::Clamp) return uint32_t(i < 0 ? 0 : (i >= ni ? ni - 1 : i));
+  if (m == WrapMode::Mirror) {
+    int p = i < 0 ? i + 2 * ni : (i >= 2 * ni ? i - 2 * ni : i);
+    return uint32_t(p < ni ? p : 2 * ni - 1 - p);
+  }
+  return uint32_t(i < 0 ? i + ni : (i >= ni ? i - ni : i));
+}
+
+// The bilinear filter's four texels around uv (after to_uv): columns i0, i1,
+// rows j0, j1, and the weights fx, fy of i1 and j1.
 struct BilinearTaps {
   uint32_t i0, i1, j0, j1;
   float fx, fy;
 };
 
-LUZ_INLINE BilinearTaps bilinear_taps(const TextureDesc& tex, Vec2 uv) {
-  const Vec2 t01 = texture_uv(tex, uv);
+LUZ_INLINE BilinearTaps bilinear_taps(const BitmapTexture& tex, Vec2 uv) {
   const uint32_t w = tex.width, h = tex.height;
-  // Continuous texel coordinates: texel centres at integers. x in [-0.5, w - 0.5).
-  const float x = t01.x * float(w) - 0.5f, y = t01.y * float(h) - 0.5f;
+  // Continuous texel coordinates: texel centres at integers.
+  const float x = reduce_coordinate(uv.x, tex.wrap) * float(w) - 0.5f;
+  const float y = reduce_coordinate(uv.y, tex.wrap) * float(h) - 0.5f;
   const float x0f = floorf(x), y0f = floorf(y);
-  // x0 in [-1, w - 1]: -1 wraps to the last column, x0 + 1 = w to the first.
   const int x0 = int(x0f), y0 = int(y0f);
   BilinearTaps t;
   t.fx = x - x0f, t.fy = y - y0f;
-  t.i0 = x0 < 0 ? w - 1 : uint32_t(x0), t.i1 = uint32_t(x0 + 1) >= w ? 0u : uint32_t(x0 + 1);
-  t.j0 = y0 < 0 ? h - 1 : uint32_t(y0), t.j1 = uint32_t(y0 + 1) >= h ? 0u : uint32_t(y0 + 1);
+  t.i0 = wrap_index(x0, w, tex.wrap), t.i1 = wrap_index(x0 + 1, w, tex.wrap);
+  t.j0 = wrap_index(y0, h, tex.wrap), t.j1 = wrap_index(y0 + 1, h, tex.wrap);
   return t;
 }
 
-// The texture's linear RGB value at uv. `texels` is the whole texel array,
-// `srgb_table` the 256 decoded sRGB values (srgb_to_linear(k / 255)).
-LUZ_INLINE Color texture_lookup(const TextureDesc& tex, const uint32_t* texels, const float* srgb_table, Vec2 uv) {
+// The texel containing uv (the nearest filter).
+LUZ_INLINE uint32_t nearest_texel(const BitmapTexture& tex, Vec2 uv) {
   const uint32_t w = tex.width, h = tex.height;
-  const uint32_t* img = texels + tex.offset;
-  if (tex.filter == TextureFilter::Nearest) {
-    const Vec2 t01 = texture_uv(tex, uv);
-    uint32_t i = uint32_t(t01.x * float(w)), j = uint32_t(t01.y * float(h));
-    i = i < w ? i : w - 1;  // u · w may round up to w
-    j = j < h ? j : h - 1;
-    return texel_color(img[j * w + i], tex.srgb, srgb_table);
-  }
-  const BilinearTaps t = bilinear_taps(tex, uv);
-  const float fx = t.fx, fy = t.fy;
-  const Color c00 = texel_color(img[t.j0 * w + t.i0], tex.srgb, srgb_table);
-  const Color c10 = texel_color(img[t.j0 * w + t.i1], tex.srgb, srgb_table);
-  const Color c01 = texel_color(img[t.j1 * w + t.i0], tex.srgb, srgb_table);
-  const Color c11 = texel_color(img[t.j1 * w + t.i1], tex.srgb, srgb_table);
-  return (c00 * (1.f - fx) + c10 * fx) * (1.f - fy) + (c01 * (1.f - fx) + c11 * fx) * fy;
+  const int i = int(floorf(reduce_coordinate(uv.x, tex.wrap) * float(w)));
+  const int j = int(floorf(reduce_coordinate(uv.y, tex.wrap) * float(h)));
+  return wrap_index(j, h, tex.wrap) * w + wrap_index(i, w, tex.wrap);
 }
 
-// Asks the CPU's caches for the texels texture_lookup will read at uv (the
-// two rows of the bilinear taps; for the nearest filter, one of them): a
-// hint with no effect on any result (the taps are always inside the
-// texture). Nothing on the GPU. Forced inline, as SceneView::prefetch_texture.
-LUZ_FORCE_INLINE void texture_prefetch(const TextureDesc& tex, const uint32_t* texels, Vec2 uv) {
+// Every texture, and the texels bitmaps address.
+struct TextureView {
+  const Texture* list = nullptr;
+  const uint32_t* texels8 = nullptr;  // packed RGBA8
+  const float* texelsf = nullptr;     // RGB floats
+  const float* srgb_table = nullptr;  // 256 entries: srgb_to_linear(k / 255)
+  uint32_t count = 0;
+
+  LUZ_INLINE Color texel(const BitmapTexture& tex, uint32_t k) const {
+    if (tex.is_float) {
+      const float* p = texelsf + 3 * (size_t(tex.offset) + k);
+      return {p[0], p[1], p[2]};
+    }
+    return texel_color(texels8[tex.offset + k], tex.srgb, srgb_table);
+  }
+
+  // The bitmap's linear RGB value at uv (after to_uv).
+  LUZ_INLINE Color bitmap(const BitmapTexture& tex, Vec2 uv) const {
+    if (tex.filter == TextureFilter::Nearest) return texel(tex, nearest_texel(tex, uv));
+    const BilinearTaps t = bilinear_taps(tex, uv);
+    const uint32_t w = tex.width;
+    const float fx = t.fx, fy = t.fy;
+    const Color c00 = texel(tex, t.j0 * w + t.i0), c10 = texel(tex, t.j0 * w + t.i1);
+    const Color c01 = texel(tex, t.j1 * w + t.i0), c11 = texel(tex, t.j1 * w + t.i1);
+    return (c00 * (1.f - fx) + c10 * fx) * (1.f - fy) + (c01 * (1.f - fx) + c11 * fx) * fy;
+  }
+
+  // Texture t's linear RGB value at the surface point of texture coordinates uv.
+  LUZ_INLINE Color eval(uint32_t t, Vec2 uv) const {
+    const Texture& tex = list[t];
+    const Vec2 st = tex.to_uv.apply(uv);
+    if (tex.type == TextureType::Checkerboard) {
+      const bool a = st.x - floorf(st.x) > 0.5f, b = st.y - floorf(st.y) > 0.5f;
+      return a != b ? tex.checkerboard.color0 : tex.checkerboard.color1;
+    }
+    return bitmap(tex.bitmap, st);
+  }
+
+  // Asks the CPU's caches for the texels eval() will read at uv (the two rows
+  // of the bilinear taps; for the nearest filter, one of them): a hint with no
+  // effect on any result. Nothing on the GPU. Forced inline: GCC 12 finds a
+  // function whose only effect is a prefetch free of side effects and drops
+  // calls to it.
+  LUZ_FORCE_INLINE void prefetch(uint32_t t, Vec2 uv) const {
 #if !defined(__CUDA_ARCH__)
-  const BilinearTaps t = bilinear_taps(tex, uv);
-  const uint32_t* img = texels + tex.offset;
-  __builtin_prefetch(img + t.j0 * tex.width + t.i0);
-  __builtin_prefetch(img + t.j1 * tex.width + t.i0);
+    const Texture& tex = list[t];
+    if (tex.type != TextureType::Bitmap) return;
+    const BilinearTaps b = bilinear_taps(tex.bitmap, tex.to_uv.apply(uv));
+    const size_t row0 = size_t(tex.bitmap.offset) + b.j0 * tex.bitmap.width + b.i0;
+    const size_t row1 = size_t(tex.bitmap.offset) + b.j1 * tex.bitmap.width + b.i0;
+    if (tex.bitmap.is_float) {
+      __builtin_prefetch(texelsf + 3 * row0);
+      __builtin_prefetch(texelsf + 3 * row1);
+    } else {
+      __builtin_prefetch(texels8 + row0);
+      __builtin_prefetch(texels8 + row1);
+    }
 #else
-  (void)tex, (void)texels, (void)uv;
+    (void)t, (void)uv;
 #endif
-}
+  }
+};
+
+// A texture-or-constant colour: `value` where texture < 0 (and, for a
+// texture, its mean: what lobe-sampling weights use, as Mitsuba's mean()).
+struct ColorTexture {
+  Color value;
+  int32_t texture = -1;
+  LUZ_INLINE Color eval(const TextureView& v, Vec2 uv) const { return texture < 0 ? value : v.eval(uint32_t(texture), uv); }
+};
 
 }  // namespace luz

@@ -311,10 +311,12 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.uvs = up.upload(scene.uvs, "texture coordinates");  // null when empty: no textures
   dev.tri_normals = nullptr;  // the GPU computes each hit's normal (not measured there with a table yet)
   dev.spheres = up.upload(scene.spheres, "spheres");
-  dev.materials = up.upload(scene.materials, "materials");
-  dev.textures = up.upload(scene.textures, "texture descriptors");
-  dev.texels = up.upload(scene.texels, "texels");
-  dev.srgb_table = up.upload(scene.srgb_table, "the sRGB decoding table");
+  dev.materials.list = up.upload(scene.materials, "materials");
+  dev.materials.bindings = up.upload(scene.texture_bindings, "texture bindings");
+  dev.textures.list = up.upload(scene.textures, "textures");
+  dev.textures.texels8 = up.upload(scene.texels8, "8-bit texels");
+  dev.textures.texelsf = up.upload(scene.texelsf, "float texels");
+  dev.textures.srgb_table = up.upload(scene.srgb_table, "the sRGB decoding table");
   dev.lights.list = up.upload(scene.lights, "lights");
   dev.lights.sampler.cdf = up.upload(scene.light_cdf, "the light CDF");
   dev.lights.sampler.pmfs = up.upload(scene.light_pmf, "the light PMF");

@@ -1,0 +1,70 @@
+// Materials: what a surface is made of, as the scene describes it. A
+// material holds a BSDF with its constant parameters and the textures that
+// drive the others; at a hit it returns the BSDF with every textured
+// parameter evaluated there (pbrt-v4's Material::GetBxDF), so the BSDF
+// models stay plain math over constants.
+#pragma once
+
+#include "luz/bsdf/bsdf.h"
+#include "luz/texture/texture.h"
+
+namespace luz {
+
+// Which part of a Bsdf a texture drives: a component (bsdf.h: the front,
+// the blend's second, the two-sided back) or the blend weight.
+enum class BsdfPart : uint8_t { Front, Second, Back, BlendWeight };
+
+// Texture `texture` drives parameter `param` of `part`. A colour parameter
+// takes the texture's RGB value, a float one its luminance (Mitsuba's eval_1).
+struct TextureBinding {
+  int32_t texture = 0;
+  BsdfPart part = BsdfPart::Front;
+  BsdfParam param = BsdfParam::Reflectance;
+};
+
+struct Material {
+  // Its bindings: MaterialsView::bindings[first_binding, + num_bindings)
+  // (first: read at every hit, beside the BSDF's type).
+  uint32_t num_bindings = 0, first_binding = 0;
+  // The constant parameters; a textured one holds the texture's mean, which
+  // host-side set-up (lobe sampling weights) uses, as Mitsuba's mean().
+  Bsdf bsdf;
+};
+
+struct MaterialsView {
+  const Material* list = nullptr;
+  const TextureBinding* bindings = nullptr;
+  uint32_t count = 0;
+
+  // The BSDF of material m at a surface point of texture coordinates uv.
+  LUZ_INLINE Bsdf bsdf(uint32_t m, const TextureView& tex, Vec2 uv) const {
+    Bsdf b = list[m].bsdf;
+    apply_textures(b, list[m], tex, uv);
+    return b;
+  }
+
+  // Sets b's textured parameters (b: a copy of mat.bsdf) to their values at uv.
+  LUZ_INLINE void apply_textures(Bsdf& b, const Material& mat, const TextureView& tex, Vec2 uv) const {
+    for (uint32_t k = 0; k < mat.num_bindings; ++k) apply(b, bindings[mat.first_binding + k], tex, uv);
+  }
+
+  // The first textured parameter's texture, or -1: the texels a hit will read
+  // first (SceneView::prefetch_texture).
+  LUZ_FORCE_INLINE int32_t first_texture(uint32_t m) const {
+    const Material& mat = list[m];
+    return mat.num_bindings > 0 ? bindings[mat.first_binding].texture : -1;
+  }
+
+  LUZ_INLINE static void apply(Bsdf& b, const TextureBinding& t, const TextureView& tex, Vec2 uv) {
+    const Color v = tex.eval(uint32_t(t.texture), uv);
+    if (t.part == BsdfPart::BlendWeight) {
+      b.blend_weight = clamp(luminance(v), 0.f, 1.f);
+      return;
+    }
+    BsdfComponent& c = t.part == BsdfPart::Front ? b : (t.part == BsdfPart::Second ? b.second : b.back);
+    if (Color* p = color_param(c, t.param)) *p = v;
+    else if (float* f = float_param(c, t.param)) *f = luminance(v);
+  }
+};
+
+}  // namespace luz
