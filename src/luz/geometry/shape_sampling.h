@@ -46,16 +46,54 @@ LUZ_INLINE float planar_pdf(Vec3 n, float area, Vec3 wi, float dist) {
   return dist * dist / (cos_l * area);
 }
 
+// A point uniform by area on triangle v0 v1 v2.
+LUZ_INLINE Vec3 triangle_point(Vec3 v0, Vec3 v1, Vec3 v2, Vec2 u) {
+  Vec2 b = square_to_triangle_barycentrics(u);
+  return v0 * (1.f - b.x - b.y) + v1 * b.x + v2 * b.y;
+}
+
 // Triangle v0 v1 v2, uniform by area.
 LUZ_FORCE_INLINE ShapeSample triangle_sample(Vec3 v0, Vec3 v1, Vec3 v2, Vec3 n, float area, Vec3 ref, Vec2 u) {
-  Vec2 b = square_to_triangle_barycentrics(u);
-  return planar_sample(v0 * (1.f - b.x - b.y) + v1 * b.x + v2 * b.y, n, area, ref);
+  return planar_sample(triangle_point(v0, v1, v2, u), n, area, ref);
 }
 
 // Parallelogram: corner c and edges e1, e2 (points c + u e1 + v e2), uniform
 // by area from one 2D point (no square-root warp, no choice between halves).
 LUZ_FORCE_INLINE ShapeSample parallelogram_sample(Vec3 c, Vec3 e1, Vec3 e2, Vec3 n, float area, Vec3 ref, Vec2 u) {
   return planar_sample(c + e1 * u.x + e2 * u.y, n, area, ref);
+}
+
+// A point sampled on a shape by itself, with no reference point (what
+// emission sampling starts from): pdf per unit area, 0 for none.
+struct AreaSample {
+  Vec3 p, n;  // the point and the shape's emitting normal there
+  float pdf = 0.f;
+};
+
+LUZ_INLINE float inverse_area(float area) { return area > 0.f ? 1.f / area : 0.f; }
+
+LUZ_INLINE AreaSample triangle_area_sample(Vec3 v0, Vec3 v1, Vec3 v2, Vec3 n, float area, Vec2 u) {
+  return {triangle_point(v0, v1, v2, u), n, inverse_area(area)};
+}
+
+LUZ_INLINE AreaSample parallelogram_area_sample(Vec3 c, Vec3 e1, Vec3 e2, Vec3 n, float area, Vec2 u) {
+  return {c + e1 * u.x + e2 * u.y, n, inverse_area(area)};
+}
+
+// Uniform over a sphere's surface; `flip`: the emitting normal points inward.
+LUZ_INLINE float sphere_area_pdf(float radius) { return inverse_area(4.f * kPi * radius * radius); }
+LUZ_INLINE AreaSample sphere_area_sample(Vec3 center, float radius, bool flip, Vec2 u) {
+  const Vec3 d = square_to_uniform_sphere(u);
+  return {center + d * radius, flip ? -d : d, sphere_area_pdf(radius)};
+}
+
+// Uniform over the disk of the given radius about `center`, perpendicular to
+// unit n (concentric map).
+LUZ_INLINE float disk_area_pdf(float radius) { return inverse_area(kPi * radius * radius); }
+LUZ_INLINE AreaSample disk_area_sample(Vec3 center, Vec3 n, float radius, Vec2 u) {
+  const Vec2 q = square_to_uniform_disk(u);
+  const Frame f = Frame::from_normal(n);
+  return {center + (f.s * q.x + f.t * q.y) * radius, n, disk_area_pdf(radius)};
 }
 
 // A sphere seen from outside: uniform in the cone it subtends (pbrt-v4's
@@ -68,9 +106,9 @@ LUZ_FORCE_INLINE ShapeSample sphere_sample(Vec3 center, float radius, bool flip,
   float r2 = radius * radius;
   if (dc2 <= r2 * 1.00001f) {
     // Inside (or on) the sphere: uniform area sampling.
-    Vec3 d = square_to_uniform_sphere(u);
-    ss.p = center + d * radius;
-    ss.n = flip ? -d : d;
+    const AreaSample as = sphere_area_sample(center, radius, flip, u);
+    ss.p = as.p;
+    ss.n = as.n;
     Vec3 w = ss.p - ref;
     float l2 = length_squared(w);
     ss.dist = sqrtf(l2);

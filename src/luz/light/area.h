@@ -1,7 +1,9 @@
 // Diffuse area lights: constant radiance on the side of the geometric normal
 // (one-sided, as Mitsuba's `area`), on a triangle, a parallelogram (a quad
 // light: two triangles of one mesh merged by Scene::compile and sampled as
-// one) or a sphere. Each samples its shape through geometry/shape_sampling.h.
+// one) or a sphere. Each samples its shape through geometry/shape_sampling.h;
+// emitted rays start at a point uniform by area, cosine-weighted about the
+// emitting normal (pbrt-v4's DiffuseAreaLight::SampleLe).
 #pragma once
 
 #include <algorithm>
@@ -22,6 +24,29 @@ LUZ_INLINE LightSample area_light_sample(const ShapeSample& ss, Color radiance) 
   return ls;
 }
 
+// The densities of area_light_le_sample: pdf_pos by area, direction cosine-
+// weighted about the emitting normal n (one-sided), per solid angle.
+LUZ_INLINE LightLePdf area_light_le_pdf(float pdf_pos, Vec3 n, Vec3 d) {
+  return {pdf_pos, cosine_hemisphere_pdf({0.f, 0.f, dot(n, d)})};
+}
+
+// An emitted ray from a point sampled by area: its direction cosine-weighted
+// about the emitting normal, the pdf taken from area_light_le_pdf so that
+// the two agree exactly.
+LUZ_INLINE LightLeSample area_light_le_sample(const AreaSample& as, Color radiance, Vec2 u_dir) {
+  LightLeSample s;
+  if (!(as.pdf > 0.f)) return s;
+  s.d = normalize(Frame::from_normal(as.n).to_world(square_to_cosine_hemisphere(u_dir)));
+  const LightLePdf pdf = area_light_le_pdf(as.pdf, as.n, s.d);
+  if (!(pdf.pdf_dir > 0.f)) return s;  // grazing, lost to rounding
+  s.p = as.p;
+  s.n = as.n;
+  s.radiance = radiance;
+  s.pdf_pos = pdf.pdf_pos;
+  s.pdf_dir = pdf.pdf_dir;
+  return s;
+}
+
 // Radiance leaving a point of normal n toward w (away from it).
 LUZ_INLINE Color one_sided(Color radiance, Vec3 n, Vec3 w) { return dot(n, w) <= 0.f ? Color{} : radiance; }
 
@@ -36,6 +61,9 @@ struct PlanarLight {
   LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit& h, const float*) const {
     return planar_pdf(h.n, area, wi, h.dist);
   }
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3 n, Vec3 d, const float*, float) const {
+    return area_light_le_pdf(inverse_area(area), n, d);
+  }
   LUZ_INLINE Color eval(Vec3 n, Vec3 w) const { return one_sided(radiance, n, w); }
   double phi(float) const { return M_PI * double(area) * std::max(0.0, double(average(radiance))); }
 };
@@ -47,6 +75,9 @@ struct TriangleLight : PlanarLight {
   LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const float*) const {
     return area_light_sample(triangle_sample(v0, v1, v2, normal, area, ctx.p, u), radiance);
   }
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float*, Vec3, float) const {
+    return area_light_le_sample(triangle_area_sample(v0, v1, v2, normal, area, u_pos), radiance, u_dir);
+  }
 };
 
 struct ParallelogramLight : PlanarLight {
@@ -55,6 +86,9 @@ struct ParallelogramLight : PlanarLight {
 
   LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const float*) const {
     return area_light_sample(parallelogram_sample(corner, e1, e2, normal, area, ctx.p, u), radiance);
+  }
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float*, Vec3, float) const {
+    return area_light_le_sample(parallelogram_area_sample(corner, e1, e2, normal, area, u_pos), radiance, u_dir);
   }
 };
 
@@ -72,6 +106,14 @@ struct SphereLight {
   }
   LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const float*) const {
     return sphere_pdf(center, radius, ctx.p, h.n, wi, h.dist);
+  }
+  // Emitted rays: by area over the whole sphere, then cosine-weighted about
+  // the emitting normal (inward when flipped).
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float*, Vec3, float) const {
+    return area_light_le_sample(sphere_area_sample(center, radius, flip, u_pos), radiance, u_dir);
+  }
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3 n, Vec3 d, const float*, float) const {
+    return area_light_le_pdf(sphere_area_pdf(radius), n, d);
   }
   LUZ_INLINE Color eval(Vec3 n, Vec3 w) const { return one_sided(radiance, n, w); }
   double phi(float) const {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "luz/light/directional.h"
 #include "luz/light/light_sample.h"
 #include "luz/sampling/warp.h"
 
@@ -22,6 +23,14 @@ struct ConstantLight {
     return ls;
   }
   LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return uniform_sphere_pdf(); }
+  // Emitted rays: a uniform direction, then through the scene's disk.
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float* data, Vec3 scene_center,
+                                     float scene_radius) const {
+    return environment_le_sample(*this, u_pos, u_dir, data, scene_center, scene_radius);
+  }
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3 d, const float* data, float scene_radius) const {
+    return {disk_area_pdf(scene_radius), pdf_li({}, -d, {}, data)};
+  }
   LUZ_INLINE Color le(Vec3, const float*) const { return radiance; }
   // The flux through the scene's bounding disk.
   double phi(float scene_radius) const {

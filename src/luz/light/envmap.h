@@ -23,6 +23,7 @@
 #include <cmath>
 #include <vector>
 
+#include "luz/light/directional.h"
 #include "luz/light/light_sample.h"
 #include "luz/sampling/distribution.h"
 
@@ -91,6 +92,16 @@ struct EnvmapLight {
   LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit&, const float* data) const {
     const Vec3 d = to_local(wi);
     return cells.pdf(data, grid(d)) * jacobian(d);
+  }
+  // Emitted rays: a direction as sample_li draws it (with its own density,
+  // which pdf_le matches but where rounding crosses a cell edge), then
+  // through the scene's disk.
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float* data, Vec3 scene_center,
+                                     float scene_radius) const {
+    return environment_le_sample(*this, u_pos, u_dir, data, scene_center, scene_radius);
+  }
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3 d, const float* data, float scene_radius) const {
+    return {disk_area_pdf(scene_radius), pdf_li({}, -d, {}, data)};
   }
 
   LUZ_INLINE Color le(Vec3 dir, const float* data) const { return lookup(data, grid(to_local(dir))); }

@@ -5,12 +5,18 @@
 //   static constexpr bool kEnvironment;  // found by the rays that leave the scene
 //   LightSample sample_li(const LightSampleContext&, Vec2 u, const float* data) const;
 //   float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit&, const float* data) const;
+//   LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float* data, Vec3 scene_center, float scene_radius) const;
+//   LightLePdf pdf_le(Vec3 p, Vec3 n, Vec3 d, const float* data, float scene_radius) const;
 //   Color eval(Vec3 n, Vec3 w) const;   // others: radiance from a surface point of normal n toward w
 //   Color le(Vec3 dir, const float* data) const;  // environments: radiance arriving along -dir, from dir
 //   double phi(float scene_radius) const;  // power (host), for light selection
 // pdf_li is the solid-angle density with which sample_li finds the light
-// along wi (0 for delta lights: no ray finds them). `data`: the lights' shared
-// float array (LightsView::data), where images and distributions live.
+// along wi (0 for delta lights: no ray finds them). sample_le draws an
+// emitted ray (light tracing, BDPT; pbrt-v4's SampleLe), pdf_le gives its
+// densities for a ray from p (normal n on area lights) along d; lights at
+// infinity send their rays through the disk of the scene's bounding sphere.
+// `data`: the lights' shared float array (LightsView::data), where images
+// and distributions live.
 #pragma once
 
 #include <type_traits>
@@ -72,6 +78,15 @@ LUZ_FORCE_INLINE LightSample sample_li(const Light& l, const LightSampleContext&
 
 LUZ_INLINE float pdf_li(const Light& l, const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const float* data) {
   return visit(l, [&](const auto& m) { return m.pdf_li(ctx, wi, h, data); });
+}
+
+LUZ_INLINE LightLeSample sample_le(const Light& l, Vec2 u_pos, Vec2 u_dir, const float* data, Vec3 scene_center,
+                                   float scene_radius) {
+  return visit(l, [&](const auto& m) { return m.sample_le(u_pos, u_dir, data, scene_center, scene_radius); });
+}
+
+LUZ_INLINE LightLePdf pdf_le(const Light& l, Vec3 p, Vec3 n, Vec3 d, const float* data, float scene_radius) {
+  return visit(l, [&](const auto& m) { return m.pdf_le(p, n, d, data, scene_radius); });
 }
 
 // Radiance a surface light sends from a point of normal n toward w.

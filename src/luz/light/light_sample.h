@@ -23,6 +23,24 @@ struct LightSample {
   bool delta = false;  // a delta light: no ray can hit it, so no MIS with BSDF sampling
 };
 
+// An emitted ray (pbrt-v4's LightLeSample): where light tracing and BDPT
+// start a light path. A zero pdf_pos or pdf_dir: no sample.
+struct LightLeSample {
+  Vec3 p;          // ray origin: on the light, or for lights at infinity on the disk the rays enter through
+  Vec3 d;          // unit direction of travel
+  Vec3 n;          // the light point's emitting normal (zero for point lights and lights at infinity)
+  Color radiance;  // along the ray; point and spot: intensity (W/sr); directional: irradiance (W/m²)
+  float pdf_pos = 0.f;  // area density of p; 1 for a delta position (a discrete choice)
+  float pdf_dir = 0.f;  // solid-angle density of d given p; 1 for a delta direction
+  bool delta_pos = false, delta_dir = false;
+};
+
+// The densities with which sample_le emits a given ray (same measures and
+// delta conventions as LightLeSample).
+struct LightLePdf {
+  float pdf_pos = 0.f, pdf_dir = 0.f;
+};
+
 // Where a ray reached a light's surface: what pdf_li needs besides the
 // direction (the light point's normal and its distance from the reference).
 struct LightHit {

@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "luz/light/light_sample.h"
+#include "luz/sampling/warp.h"
 
 namespace luz {
 
@@ -33,6 +34,18 @@ struct PointLight {
     return point_light_sample(position, ctx.p, intensity);
   }
   LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return 0.f; }
+  // Emitted rays: uniform over the sphere of directions.
+  LUZ_INLINE LightLeSample sample_le(Vec2, Vec2 u_dir, const float*, Vec3, float) const {
+    LightLeSample s;
+    s.p = position;
+    s.d = square_to_uniform_sphere(u_dir);
+    s.radiance = intensity;
+    s.pdf_pos = 1.f;
+    s.pdf_dir = uniform_sphere_pdf();
+    s.delta_pos = true;
+    return s;
+  }
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3, const float*, float) const { return {1.f, uniform_sphere_pdf()}; }
   LUZ_INLINE Color eval(Vec3, Vec3) const { return {}; }
   double phi(float) const { return 4.0 * M_PI * std::max(0.0, double(average(intensity))); }
 };

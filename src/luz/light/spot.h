@@ -28,13 +28,49 @@ struct SpotLight {
     return (cutoff - acosf(cos_theta)) * inv_transition;
   }
 
+  // World direction w in light space (not normalised).
+  LUZ_INLINE Vec3 to_local(Vec3 w) const { return {dot(inv_x, w), dot(inv_y, w), dot(inv_z, w)}; }
+  // Light-space direction v in world space, normalised: to_world's linear
+  // part is the inverse of the matrix of rows inv_x, inv_y, inv_z, whose
+  // columns are (inv_y × inv_z, inv_z × inv_x, inv_x × inv_y) / det.
+  LUZ_INLINE Vec3 to_world(Vec3 v) const {
+    const Vec3 w = cross(inv_y, inv_z) * v.x + cross(inv_z, inv_x) * v.y + cross(inv_x, inv_y) * v.z;
+    return normalize(dot(inv_x, cross(inv_y, inv_z)) < 0.f ? -w : w);
+  }
+
   LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2, const float*) const {
     const Vec3 w = ctx.p - position;  // from the light toward the shading point
-    const float f = falloff({dot(inv_x, w), dot(inv_y, w), dot(inv_z, w)});
+    const float f = falloff(to_local(w));
     if (!(f > 0.f)) return {};
     return point_light_sample(position, ctx.p, intensity * f);
   }
   LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return 0.f; }
+  // Emitted rays: uniform in the light-space cone cos θ > cos_cutoff (the
+  // cone falloff() lights: 1 - cos_cutoff is exact in float), mapped to the
+  // world; the pdf is taken from pdf_le, so that the two agree exactly.
+  LUZ_INLINE LightLeSample sample_le(Vec2, Vec2 u_dir, const float*, Vec3, float) const {
+    LightLeSample s;
+    const Vec3 d = to_world(square_to_uniform_cone(u_dir, 1.f - cos_cutoff));
+    const LightLePdf pdf = pdf_le({}, {}, d, nullptr, 0.f);
+    if (!(pdf.pdf_dir > 0.f)) return s;  // on the rim, lost to rounding
+    s.p = position;
+    s.d = d;
+    s.radiance = intensity * falloff(to_local(d));
+    s.pdf_pos = 1.f;
+    s.pdf_dir = pdf.pdf_dir;
+    s.delta_pos = true;
+    return s;
+  }
+  // The cone's density in light space times the solid-angle Jacobian of
+  // w -> v = B w / |B w| (B = to_world's inverse), |det B| / |B w|³ for unit
+  // w: 1 for a rotation, and still right when to_world scales unevenly.
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3 d, const float*, float) const {
+    const Vec3 v = to_local(d);
+    const float len = length(v);
+    if (!(normalize(v).z > cos_cutoff)) return {1.f, 0.f};
+    const float det = fabsf(dot(inv_x, cross(inv_y, inv_z)));
+    return {1.f, uniform_cone_pdf(1.f - cos_cutoff) * det / (len * len * len)};
+  }
   LUZ_INLINE Color eval(Vec3, Vec3) const { return {}; }
   // 2π I ∫ falloff(θ) sin θ dθ = 2π I (1 - (sin c - sin b) / (c - b)),
   // 2π I (1 - cos c) when b = c.
