@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "luz/light/light_bounds.h"
 #include "luz/light/light_sample.h"
 
 namespace luz {
@@ -35,6 +36,14 @@ struct PointLight {
   LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return 0.f; }
   LUZ_INLINE Color eval(Vec3, Vec3) const { return {}; }
   double phi(float) const { return 4.0 * M_PI * std::max(0.0, double(average(intensity))); }
+  LightBounds bounds() const {
+    LightBounds b;
+    b.lo = b.hi = position;
+    b.w = {0.f, 0.f, 1.f};
+    b.cos_theta_o = -1.f;
+    b.phi = float(std::max(0.0, double(average(intensity))));
+    return b;
+  }
 };
 
 }  // namespace luz
