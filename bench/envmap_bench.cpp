@@ -15,21 +15,16 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
 #include <string>
 #include <vector>
 
-#include "luz/device/cpu/render.h"
-#include "luz/io/image.h"
 #include "luz/io/scene_loader.h"
-#include "luz/math/hash.h"
+#include "reference.h"
 
 using namespace luz;
-namespace fs = std::filesystem;
+using namespace luz_bench;
 
 namespace {
-
-constexpr double kEps = 0.01;
 
 struct Args {
   std::string scene = "bench/scenes/envmap-spheres.xml";
@@ -37,13 +32,6 @@ struct Args {
   int threads = 0;
   int res = 128;
 };
-
-double rel_mse(const Film& f, const std::vector<double>& ref) {
-  const std::vector<float> m = f.mean();
-  double acc = 0;
-  for (size_t k = 0; k < m.size(); ++k) acc += (m[k] - ref[k]) * (m[k] - ref[k]) / (ref[k] * ref[k] + kEps);
-  return acc / double(m.size());
-}
 
 // Index of the scene's envmap light; exits if there is none.
 size_t envmap_index(const Scene& s) {
@@ -65,28 +53,13 @@ void make_uniform(Scene& s) {
   s.compile();
 }
 
-Film render(const Scene& s, int threads, double& seconds) {
-  CpuRenderOptions opt;
-  opt.threads = threads;
-  RenderStats stats;
-  Film f = render_cpu(s, opt, stats);
-  seconds = stats.seconds;
-  return f;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   Args a;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::fprintf(stderr, "envmap_bench: %s needs a value\n", arg.c_str());
-        std::exit(2);
-      }
-      return argv[++i];
-    };
+    auto next = [&] { return flag_value("envmap_bench", argc, argv, i); };
     if (arg == "--spp") a.spp = uint32_t(std::stoul(next()));
     else if (arg == "--ref-spp") a.ref_spp = uint32_t(std::stoul(next()));
     else if (arg == "--threads") a.threads = std::stoi(next());
@@ -102,41 +75,12 @@ int main(int argc, char** argv) {
   envmap_index(base);
 
   // The reference, cached by scene file contents, resolution and spp.
-  const char* cache_home = std::getenv("XDG_CACHE_HOME");
-  const char* home = std::getenv("HOME");
-  const fs::path cache = cache_home ? fs::path(cache_home) / "luz" : fs::path(home ? home : "/tmp") / ".cache" / "luz";
-  fs::create_directories(cache);
-  std::FILE* sf = std::fopen(a.scene.c_str(), "rb");
-  uint64_t h = 0x6c757a;
-  for (int c; sf && (c = std::fgetc(sf)) != EOF;) h = mix64(h ^ uint64_t(c));
-  if (sf) std::fclose(sf);
   char name[96];
-  std::snprintf(name, sizeof name, "envmap-ref-%016" PRIx64 "-%d-%u.pfm", h, a.res, a.ref_spp);
-  const fs::path ref_path = cache / name;
-  const fs::path ref_var_path = cache / (std::string(name) + ".var.pfm");
-  std::vector<double> ref, ref_var;
-  if (fs::exists(ref_path) && fs::exists(ref_var_path)) {
-    const Image r = read_pfm(ref_path.string()), v = read_pfm(ref_var_path.string());
-    ref.assign(r.rgb.begin(), r.rgb.end());
-    ref_var.assign(v.rgb.begin(), v.rgb.end());
-    std::printf("reference: %s (cached)\n", ref_path.c_str());
-  } else {
-    Scene s = base;
-    s.settings.spp = a.ref_spp;
-    s.settings.seed = 9001;
-    double t = 0;
-    const Film f = render(s, a.threads, t);
-    const std::vector<float> m = f.mean();
-    ref.assign(m.begin(), m.end());
-    ref_var = f.variance_of_mean();
-    Image r{f.width, f.height, m}, v{f.width, f.height, std::vector<float>(ref_var.begin(), ref_var.end())};
-    write_image(ref_path.string(), r);
-    write_image(ref_var_path.string(), v);
-    std::printf("reference: %u spp in %.1f s, cached as %s\n", a.ref_spp, t, ref_path.c_str());
-  }
-  double ref_noise = 0;
-  for (size_t k = 0; k < ref.size(); ++k) ref_noise += ref_var[k] / (ref[k] * ref[k] + kEps);
-  ref_noise /= double(ref.size());
+  std::snprintf(name, sizeof name, "envmap-ref-%016" PRIx64 "-%d-%u.pfm", file_hash(a.scene), a.res, a.ref_spp);
+  Scene ref_scene = base;
+  ref_scene.settings.spp = a.ref_spp;
+  ref_scene.settings.seed = 9001;
+  const Reference ref = cached_reference(name, ref_scene, a.threads);
 
   struct Variant {
     const char* name;
@@ -149,10 +93,10 @@ int main(int argc, char** argv) {
     s.settings.spp = a.spp;
     s.settings.seed = 7;
     const Film f = render(s, a.threads, v.seconds);
-    v.rel = rel_mse(f, ref) - ref_noise;
+    v.rel = rel_mse(f, ref.mean) - ref.noise;
   }
   std::printf("scene %s, %dx%d, %u spp; reference %u spp, its own relMSE %.2e\n", a.scene.c_str(), a.res, a.res, a.spp,
-              a.ref_spp, ref_noise);
+              a.ref_spp, ref.noise);
   const double pixels = double(a.res) * a.res;
   for (const Variant& v : variants) {
     const Variant& other = v.uniform ? variants[0] : variants[1];

@@ -1,7 +1,8 @@
 // luz: the command-line renderer.
 //   luz render SCENE [-o out.exr|.pfm|.png] [--spp N] [--threads N] [--seed S]
 //       [--max-depth D] [--sampler independent|stratified|sobol]
-//       [--integrator path|bsdf|light] [--device cpu|cuda|auto] [-D name=value]...
+//       [--integrator path|bsdf|light] [--light-sampler power|bvh]
+//       [--device cpu|cuda|auto] [-D name=value]...
 //
 // --device: cpu (the default: all cores, Embree), cuda (the first NVIDIA GPU;
 // without a usable one, a one-line error naming why, exit status 2, before
@@ -46,8 +47,8 @@ void check_output(const std::string& out) {
 }
 
 int render(const std::string& scene_path, std::vector<std::string> outs, int spp, int threads, long long seed, int max_depth,
-           const std::string& sampler, const std::string& integrator, const std::string& device,
-           const std::vector<std::string>& defs) {
+           const std::string& sampler, const std::string& integrator, const std::string& light_sampler,
+           const std::string& device, const std::vector<std::string>& defs) {
   luz::Defines defines;
   for (const std::string& d : defs) {
     size_t eq = d.find('=');
@@ -80,6 +81,8 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
   if (integrator == "path") s.integrator.type = luz::IntegratorType::Path;
   else if (integrator == "bsdf") s.integrator.type = luz::IntegratorType::Bsdf;
   else if (integrator == "light") s.integrator.type = luz::IntegratorType::Light;
+  if (light_sampler == "bvh") s.light_sampler = luz::LightSamplerType::Bvh;
+  else if (light_sampler == "power") s.light_sampler = luz::LightSamplerType::Power;
 
   if (device == "auto" && !use_cuda)
     std::fprintf(stderr, "luz: warning: --device auto: no usable GPU (%s); rendering on the CPU\n", no_gpu.c_str());
@@ -87,7 +90,7 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
   std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu light%s, on %s\n", scene_path.c_str(),
                scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(), scene.spheres.size(),
                scene.lights.size(), scene.lights.size() == 1 ? "" : "s", use_cuda ? luz::cuda_device_name().c_str() : "the CPU");
-  if (scene.light_cdf.empty())
+  if (!scene.lights_emit)
     std::fprintf(stderr, "luz: warning: %s: the scene has no light that emits, so the image will be black\n",
                  scene_path.c_str());
   luz::Film film;
@@ -119,7 +122,7 @@ int main(int argc, char** argv) {
   CLI::App app{"Luz: a physically based path tracer"};
   app.require_subcommand(1);
   CLI::App* rc = app.add_subcommand("render", "render a scene (Mitsuba 3 XML or OBJ) to an image");
-  std::string scene, sampler, integrator, device = "cpu";
+  std::string scene, sampler, integrator, light_sampler, device = "cpu";
   std::vector<std::string> outs;
   int spp = 0, threads = 0, max_depth = 0;
   long long seed = -1;
@@ -152,6 +155,9 @@ int main(int argc, char** argv) {
       ->check(integer_in(1, 1 << 20, "-1 (unbounded) or a depth from 1 to 1048576", true));
   rc->add_option("--sampler", sampler, "sample generator")->check(CLI::IsMember({"independent", "stratified", "sobol"}));
   rc->add_option("--integrator", integrator, "estimator")->check(CLI::IsMember({"path", "bsdf", "light"}));
+  rc->add_option("--light-sampler", light_sampler,
+                 "light selection: power (default: by power alone) or bvh (a light BVH: also by distance and orientation)")
+      ->check(CLI::IsMember({"power", "bvh"}));
   rc->add_option("--device", device, "where to render: cpu (default), cuda (an NVIDIA GPU), auto (cuda if usable)")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   rc->add_option("-D", defines, "override a scene <default>: name=value")->allow_extra_args(false);
@@ -167,7 +173,7 @@ int main(int argc, char** argv) {
   // Every error is one line: "file:line: error: problem" when it concerns a
   // file, "luz: error: problem" otherwise.
   try {
-    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, device, defines);
+    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, light_sampler, device, defines);
   } catch (const luz::InputError& e) {
     if (e.file().empty())
       std::fprintf(stderr, "luz: error: %s\n", e.problem().c_str());

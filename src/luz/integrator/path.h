@@ -80,6 +80,7 @@ struct PathState {
   bool prev_delta = false;   // that sample came from a delta lobe
   float eta_acc = 1.f;       // product of BsdfSample::eta (Russian roulette)
   Vec3 prev_p;               // where `ray` started
+  Vec3 prev_ns;              // the shading normal there (zero at the camera): the light sampler's context
   int depth = 1;             // the vertex `ray` will find
   bool alive = true;
 };
@@ -148,7 +149,9 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     float light_pdf = 0.f;
     Interaction it;
     const LightsView& lights = scene.lights;
-    const LightSampleContext prev_ctx{prev_p, {}, {}};
+    // The context the previous vertex's light sample had (its p and ns, all
+    // a light sampler reads), so that MIS weighs this hit by the same pmf.
+    const LightSampleContext prev_ctx{prev_p, {}, st.prev_ns};
     if (!found) {
       if (lights.environment >= 0) {
         const Light& env = lights[uint32_t(lights.environment)];
@@ -208,7 +211,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       const SampledLight sl = lights.sampler.sample(ctx, u_light2.x);
       if (sl.pmf < kMinReusePmf) u_light2.x = sampler.aux_1d(base_dim);
       const LightSample ls = sample_li(lights[sl.light], ctx, u_light2, lights.data);
-      if (ls.pdf > 0.f) {
+      if (ls.pdf > 0.f && sl.pmf > 0.f) {
         Vec3 wi = frame.to_local(ls.wi);
         const Color f = plain ? bsdf.f_diffuse(wo, wi) : bsdf.f_general(wo, wi, TransportMode::Radiance);
         // Geometric side test too: no light through a reflecting surface, and
@@ -259,6 +262,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     prev_pdf = bs.pdf;
     prev_delta = bs.delta;
     prev_p = it.p;
+    st.prev_ns = it.ns;
     if (bs.transmission) eta_acc *= bs.eta;
 
     // Russian roulette on the throughput without the η² of refraction.

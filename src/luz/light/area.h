@@ -9,6 +9,7 @@
 #include <algorithm>
 
 #include "luz/geometry/shape_sampling.h"
+#include "luz/light/light_bounds.h"
 #include "luz/light/light_sample.h"
 
 namespace luz {
@@ -66,6 +67,15 @@ struct PlanarLight {
   }
   LUZ_INLINE Color eval(Vec3 n, Vec3 w) const { return one_sided(radiance, n, w); }
   double phi(float) const { return M_PI * double(area) * std::max(0.0, double(average(radiance))); }
+  // Emits into the hemisphere of `normal` from within [lo, hi].
+  LightBounds planar_bounds(Vec3 lo, Vec3 hi) const {
+    LightBounds b;
+    b.lo = lo;
+    b.hi = hi;
+    b.w = normal;
+    b.phi = float(double(area) * std::max(0.0, double(average(radiance))));
+    return b;
+  }
 };
 
 struct TriangleLight : PlanarLight {
@@ -78,6 +88,7 @@ struct TriangleLight : PlanarLight {
   LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float*, Vec3, float) const {
     return area_light_le_sample(triangle_area_sample(v0, v1, v2, normal, area, u_pos), radiance, u_dir);
   }
+  LightBounds bounds() const { return planar_bounds(vmin(v0, vmin(v1, v2)), vmax(v0, vmax(v1, v2))); }
 };
 
 struct ParallelogramLight : PlanarLight {
@@ -89,6 +100,11 @@ struct ParallelogramLight : PlanarLight {
   }
   LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float*, Vec3, float) const {
     return area_light_le_sample(parallelogram_area_sample(corner, e1, e2, normal, area, u_pos), radiance, u_dir);
+  }
+  LightBounds bounds() const {
+    const Vec3 far = corner + e1 + e2;
+    return planar_bounds(vmin(vmin(corner, far), vmin(corner + e1, corner + e2)),
+                         vmax(vmax(corner, far), vmax(corner + e1, corner + e2)));
   }
 };
 
@@ -118,6 +134,17 @@ struct SphereLight {
   LUZ_INLINE Color eval(Vec3 n, Vec3 w) const { return one_sided(radiance, n, w); }
   double phi(float) const {
     return M_PI * (4.0 * M_PI * double(radius) * radius) * std::max(0.0, double(average(radiance)));
+  }
+  // Normals every way (outward or, flipped, inward); intensity L·πr².
+  LightBounds bounds() const {
+    LightBounds b;
+    const Vec3 r{radius, radius, radius};
+    b.lo = center - r;
+    b.hi = center + r;
+    b.w = {0.f, 0.f, 1.f};
+    b.cos_theta_o = -1.f;
+    b.phi = float(M_PI * double(radius) * radius * std::max(0.0, double(average(radiance))));
+    return b;
   }
 };
 

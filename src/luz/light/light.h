@@ -10,6 +10,7 @@
 //   Color eval(Vec3 n, Vec3 w) const;   // others: radiance from a surface point of normal n toward w
 //   Color le(Vec3 dir, const float* data) const;  // environments: radiance arriving along -dir, from dir
 //   double phi(float scene_radius) const;  // power (host), for light selection
+//   LightBounds bounds() const;            // (host, finite lights only) for the light BVH
 // pdf_li is the solid-angle density with which sample_li finds the light
 // along wi (0 for delta lights: no ray finds them). sample_le draws an
 // emitted ray (light tracing, BDPT; pbrt-v4's SampleLe), pdf_le gives its
@@ -19,7 +20,9 @@
 // and distributions live.
 #pragma once
 
+#include <optional>
 #include <type_traits>
+#include <utility>
 
 #include "luz/light/area.h"
 #include "luz/light/constant.h"
@@ -114,6 +117,20 @@ LUZ_INLINE bool is_environment(const Light& l) {
 
 inline double phi(const Light& l, float scene_radius) {
   return visit(l, [&](const auto& m) { return m.phi(scene_radius); });
+}
+
+template <class M, class = void>
+struct HasBounds : std::false_type {};
+template <class M>
+struct HasBounds<M, std::void_t<decltype(std::declval<const M&>().bounds())>> : std::true_type {};
+
+// Where and how a light emits, for the light BVH (host); none for the
+// infinite ones (environments, directional), which it samples apart.
+inline std::optional<LightBounds> bounds(const Light& l) {
+  return visit(l, [](const auto& m) -> std::optional<LightBounds> {
+    if constexpr (HasBounds<std::decay_t<decltype(m)>>::value) return m.bounds();
+    else return std::nullopt;
+  });
 }
 
 }  // namespace luz

@@ -1,40 +1,47 @@
 // Light selection for next-event estimation: sample(ctx, u) picks a light,
-// pmf(ctx, light) is the probability it would have picked that one. Today in
-// proportion to power (Light::phi) by inverting a CDF; the shading point
-// does not enter it yet.
+// pmf(ctx, light) is the probability it would have picked that one. Two
+// strategies, chosen by RenderSettings::light_sampler: in proportion to power
+// (Light::phi) by an alias table, or by a light BVH (light_bvh.h) that also
+// weighs each light's distance and orientation from the shading point. Both
+// read ctx.p and ctx.ns only (ns zero: no surface). Both reuse u: it comes
+// back rescaled to [0, 1) within the choice, to place the point on the light.
 #pragma once
 
-#include "luz/light/light.h"
+#include "luz/light/light_bvh.h"
 #include "luz/sampling/distribution.h"
 
 namespace luz {
 
-struct SampledLight {
-  uint32_t light = 0;
-  float pmf = 0.f;
-};
+enum class LightSamplerType : uint32_t { Power, Bvh };
 
 struct PowerLightSampler {
-  // cdf: n + 1 entries from 0 to 1 (distribution.h); pmfs[k] = P(choose k).
-  // n = 0: no light has power, nothing is sampled.
-  const float* cdf = nullptr;
-  const float* pmfs = nullptr;
-  uint32_t n = 0;
+  AliasTable table;  // over every light; pmf 0 for those without power
 
-  // Sample reuse (as Mitsuba 3's DiscreteDistribution::sample_reuse): selects
-  // a light by u and rescales u to [0,1) within the chosen interval, so one
-  // 2D draw both picks the light and places the point on it. With one light
-  // u is left as it is.
   LUZ_INLINE SampledLight sample(const LightSampleContext&, float& u) const {
-    if (n == 1) return {0, pmfs[0]};
-    const uint32_t e = cdf_find(cdf, n, u);
-    u = cdf_remap(cdf, e, u);
-    return {e, pmfs[e]};
+    const AliasSample s = table.sample(u);
+    u = s.u;
+    return {s.index, s.pmf};
   }
-
-  LUZ_INLINE float pmf(const LightSampleContext&, uint32_t light) const { return pmfs[light]; }
+  LUZ_INLINE float pmf(const LightSampleContext&, uint32_t light) const { return table.pmf(light); }
 };
 
-using LightSampler = PowerLightSampler;
+struct LightSampler {
+  LightSamplerType type = LightSamplerType::Power;
+  // The number of lights; 0: nothing to sample (no light, or none with
+  // power). With one light, both strategies choose it with pmf 1 and leave
+  // u as it is, without asking their tables.
+  uint32_t n = 0;
+  PowerLightSampler power;
+  BvhLightSampler bvh;
+
+  LUZ_INLINE SampledLight sample(const LightSampleContext& ctx, float& u) const {
+    if (n == 1) return {0, 1.f};
+    return type == LightSamplerType::Bvh ? bvh.sample(ctx, u) : power.sample(ctx, u);
+  }
+  LUZ_INLINE float pmf(const LightSampleContext& ctx, uint32_t light) const {
+    if (n == 1) return 1.f;
+    return type == LightSamplerType::Bvh ? bvh.pmf(ctx, light) : power.pmf(ctx, light);
+  }
+};
 
 }  // namespace luz

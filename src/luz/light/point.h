@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "luz/light/light_bounds.h"
 #include "luz/light/light_sample.h"
 #include "luz/sampling/warp.h"
 
@@ -48,6 +49,14 @@ struct PointLight {
   LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3, const float*, float) const { return {1.f, uniform_sphere_pdf()}; }
   LUZ_INLINE Color eval(Vec3, Vec3) const { return {}; }
   double phi(float) const { return 4.0 * M_PI * std::max(0.0, double(average(intensity))); }
+  LightBounds bounds() const {
+    LightBounds b;
+    b.lo = b.hi = position;
+    b.w = {0.f, 0.f, 1.f};
+    b.cos_theta_o = -1.f;
+    b.phi = float(std::max(0.0, double(average(intensity))));
+    return b;
+  }
 };
 
 }  // namespace luz

@@ -79,6 +79,22 @@ struct SpotLight {
     const double solid = c - b > 1e-7 ? 1.0 - (std::sin(c) - std::sin(b)) / (c - b) : 1.0 - std::cos(c);
     return 2.0 * M_PI * solid * std::max(0.0, double(average(intensity)));
   }
+  // Full intensity within the beam around the axis, spreading to the cutoff
+  // (pbrt-v4's SpotLight::Bounds). The axis is inv_z when to_world is a
+  // rotation times a uniform scale; otherwise every direction.
+  LightBounds bounds() const {
+    LightBounds b;
+    b.lo = b.hi = position;
+    b.phi = float(std::max(0.0, double(average(intensity))));
+    const float sx = length(inv_x), sy = length(inv_y), sz = length(inv_z);
+    const float tol = 1e-4f * sz;
+    const bool conformal = std::fabs(sx - sz) <= tol && std::fabs(sy - sz) <= tol && std::fabs(dot(inv_x, inv_y)) <= tol * sz &&
+                           std::fabs(dot(inv_y, inv_z)) <= tol * sz && std::fabs(dot(inv_x, inv_z)) <= tol * sz && sz > 0.f;
+    b.w = conformal ? inv_z / sz : Vec3{0.f, 0.f, 1.f};
+    b.cos_theta_o = conformal ? cos_beam : -1.f;
+    b.cos_theta_e = conformal ? std::cos(cutoff - beam) : 0.f;
+    return b;
+  }
 };
 
 }  // namespace luz

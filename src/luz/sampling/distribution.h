@@ -7,6 +7,11 @@
 // Sampled as a row j by the marginal CDF, then a column i by row j's
 // conditional CDF, each continuous within its cell (the CDF inverted
 // linearly), so one uniform 2-D point gives one (s, t).
+//
+// AliasTable: a discrete distribution over n items by Walker's alias method
+// (Vose's O(n) construction, "A linear algorithm for generating random
+// numbers with a given distribution", IEEE TSE 1991): O(1) sampling, with
+// sample reuse. What power-proportional light selection uses.
 #pragma once
 
 #include <cstdint>
@@ -94,6 +99,90 @@ inline Distribution2D build_distribution2d(const std::vector<double>& w, uint32_
   d.conditional = uint32_t(data.size());
   for (uint32_t j = 0; j < ny; ++j) append_cdf(w.data() + size_t(j) * nx, nx, row_sum[j], data);
   return d;
+}
+
+// One column of an alias table: u within the column below `q` picks the
+// column's own item, above it the item `alias`.
+struct AliasEntry {
+  float q = 1.f;
+  uint32_t alias = 0;
+};
+
+struct AliasSample {
+  uint32_t index = 0;
+  float pmf = 0.f;
+  float u = 0.f;  // the input u, remapped to [0, 1) uniformly given the choice
+};
+
+struct AliasTable {
+  const AliasEntry* entries = nullptr;
+  const float* pmfs = nullptr;  // pmfs[i] = w[i] / Σw, computed in double
+  uint32_t n = 0;               // 0: no weight, nothing to sample
+
+  // u ∈ [0, 1) picks column floor(u n), then the fraction within it picks
+  // the column's item or its alias; that fraction, rescaled to the part of
+  // the column the choice took, is the remapped u. Each column part mapping
+  // to an item is uniform in it, so the remapped u is uniform given the item.
+  LUZ_INLINE AliasSample sample(float u) const {
+    const float x = u * float(n);
+    const uint32_t col = min(uint32_t(x), n - 1);
+    const float f = min(x - float(col), kOneMinusEpsilon);
+    const AliasEntry e = entries[col];
+    AliasSample s;
+    if (f < e.q) {
+      s.index = col;
+      s.u = min(f / e.q, kOneMinusEpsilon);
+    } else {
+      s.index = e.alias;
+      s.u = min((f - e.q) / (1.f - e.q), kOneMinusEpsilon);
+    }
+    s.pmf = pmfs[s.index];
+    return s;
+  }
+
+  LUZ_INLINE float pmf(uint32_t i) const { return pmfs[i]; }
+};
+
+// Builds the alias table of n non-negative finite weights into entries and
+// pmfs (n each, replaced). Returns false, leaving both all-zero pmfs and
+// uniform columns, when the weights sum to 0. Zero weights get q = 0 and an
+// alias of positive weight: never chosen.
+inline bool build_alias_table(const double* w, uint32_t n, std::vector<AliasEntry>& entries,
+                              std::vector<float>& pmfs) {
+  entries.assign(n, AliasEntry{});
+  pmfs.assign(n, 0.f);
+  double total = 0.0;
+  for (uint32_t i = 0; i < n; ++i) total += w[i];
+  if (!(total > 0.0)) {
+    for (uint32_t i = 0; i < n; ++i) entries[i].alias = i;
+    return false;
+  }
+  // Scaled so that the mean is 1; columns below 1 take their rest from
+  // one above 1 (Vose's small and large work lists).
+  std::vector<double> p(n);
+  std::vector<uint32_t> small, large;
+  uint32_t positive = 0;
+  for (uint32_t i = 0; i < n; ++i) {
+    pmfs[i] = float(w[i] / total);
+    p[i] = w[i] / total * n;
+    (p[i] < 1.0 ? small : large).push_back(i);
+    if (w[i] > 0.0) positive = i;
+  }
+  while (!small.empty() && !large.empty()) {
+    const uint32_t s = small.back(), l = large.back();
+    small.pop_back();
+    entries[s] = {float(p[s]), l};
+    p[l] -= 1.0 - p[s];
+    if (p[l] < 1.0) {
+      large.pop_back();
+      small.push_back(l);
+    }
+  }
+  // What rounding leaves is (close to) 1: the column is all its own, unless
+  // its item has no weight.
+  for (const auto* rest : {&small, &large})
+    for (uint32_t i : *rest) entries[i] = w[i] > 0.0 ? AliasEntry{1.f, i} : AliasEntry{0.f, positive};
+  return true;
 }
 
 }  // namespace luz

@@ -268,15 +268,9 @@ void Scene::compile() {
     }
     power[e] = phi(l, radius);
   }
-  double total = 0;
-  for (double p : power) total += p;
-  // With no emitting power at all, the CDF stays empty: no light sampling.
-  light_cdf.clear();
-  light_pmf.assign(lights.size(), 0.f);
-  if (total > 0) {
-    append_cdf(power.data(), uint32_t(power.size()), total, light_cdf);
-    for (size_t e = 0; e < lights.size(); ++e) light_pmf[e] = float(power[e] / total);
-  }
+  // With no emitting power at all, no light sampling.
+  lights_emit = build_alias_table(power.data(), uint32_t(power.size()), light_alias, light_pmf);
+  light_bvh = build_light_bvh(lights.data(), power.data(), uint32_t(lights.size()));
 }
 
 SceneView Scene::view() const {
@@ -302,9 +296,10 @@ SceneView Scene::view() const {
   v.lights.list = lights.data();
   v.lights.num_lights = uint32_t(lights.size());
   v.lights.environment = environment;
-  v.lights.sampler.cdf = light_cdf.data();
-  v.lights.sampler.pmfs = light_pmf.data();
-  v.lights.sampler.n = light_cdf.empty() ? 0 : uint32_t(lights.size());
+  v.lights.sampler.type = settings.light_sampler;
+  v.lights.sampler.n = lights_emit ? uint32_t(lights.size()) : 0;
+  v.lights.sampler.power.table = {light_alias.data(), light_pmf.data(), uint32_t(light_alias.size())};
+  v.lights.sampler.bvh = light_bvh.view();
   v.lights.data = light_data.data();
   v.camera = camera;
   v.bounds_center = (bounds_min + bounds_max) * 0.5f;

@@ -318,8 +318,11 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.textures.texelsf = up.upload(scene.texelsf, "float texels");
   dev.textures.srgb_table = up.upload(scene.srgb_table, "the sRGB decoding table");
   dev.lights.list = up.upload(scene.lights, "lights");
-  dev.lights.sampler.cdf = up.upload(scene.light_cdf, "the light CDF");
-  dev.lights.sampler.pmfs = up.upload(scene.light_pmf, "the light PMF");
+  dev.lights.sampler.power.table.entries = up.upload(scene.light_alias, "the light alias table");
+  dev.lights.sampler.power.table.pmfs = up.upload(scene.light_pmf, "the light PMF");
+  dev.lights.sampler.bvh.nodes = up.upload(scene.light_bvh.nodes, "the light BVH");
+  dev.lights.sampler.bvh.trails = up.upload(scene.light_bvh.trails, "the light BVH's bit trails");
+  dev.lights.sampler.bvh.infinite = up.upload(scene.light_bvh.infinite, "the infinite lights");
   dev.lights.data = up.upload(scene.light_data, "environment maps");
   const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres);
 

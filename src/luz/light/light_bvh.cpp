@@ -1,0 +1,140 @@
+// The light BVH's host build (light_bvh.h).
+#include "luz/light/light_bvh.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace luz {
+
+namespace {
+
+constexpr int kBuckets = 12;
+// Below this depth the SAH splits; deeper, halves by count, so no trail
+// passes kLightTrailDepth bits for up to 2^32 lights.
+constexpr int kSahDepth = kLightTrailDepth - 32;
+
+struct BuildLight {
+  LightBounds b;
+  Vec3 centroid;
+  uint32_t light;
+};
+
+// pbrt-v4's BVHLightSampler::EvaluateCost: power × the orientation measure
+// M_Ω of the cone (θo, θe) (Conty Estevez and Kulla, eq. 1) × surface area,
+// with the box's aspect along the split axis (Kr) against thin slabs.
+double cost(const LightBounds& b, const LightBounds& all, int dim) {
+  const double theta_o = std::acos(std::clamp(double(b.cos_theta_o), -1.0, 1.0));
+  const double theta_e = std::acos(std::clamp(double(b.cos_theta_e), -1.0, 1.0));
+  const double theta_w = std::min(theta_o + theta_e, M_PI);
+  const double sin_o = std::sin(theta_o), cos_o = std::cos(theta_o);
+  const double m_omega = 2 * M_PI * (1 - cos_o) +
+                         M_PI / 2 * (2 * theta_w * sin_o - std::cos(theta_o - 2 * theta_w) - 2 * theta_o * sin_o + cos_o);
+  const Vec3 diag = all.hi - all.lo, d = b.hi - b.lo;
+  const double kr = double(std::max({diag.x, diag.y, diag.z})) / double(diag[dim]);
+  const double area = 2.0 * (double(d.x) * d.y + double(d.y) * d.z + double(d.z) * d.x);
+  return double(b.phi) * m_omega * kr * area;
+}
+
+struct Builder {
+  std::vector<BuildLight>& items;
+  LightBvhData& out;
+
+  // Appends the subtree over items[start, end) and returns its root's index.
+  uint32_t build(size_t start, size_t end, uint64_t trail, int depth) {
+    const uint32_t node = uint32_t(out.nodes.size());
+    out.nodes.emplace_back();
+    if (end - start == 1) {
+      out.nodes[node] = {items[start].b, items[start].light, 1u};
+      out.trails[items[start].light] = trail;
+      return node;
+    }
+    LightBounds all = items[start].b;
+    Vec3 clo = items[start].centroid, chi = clo;
+    for (size_t k = start + 1; k < end; ++k) {
+      all = bounds_union(all, items[k].b);
+      clo = vmin(clo, items[k].centroid);
+      chi = vmax(chi, items[k].centroid);
+    }
+    size_t mid = start;
+    int best_dim = -1, best_bucket = -1;
+    if (depth < kSahDepth) {
+      double best = INFINITY;
+      for (int dim = 0; dim < 3; ++dim) {
+        if (!(chi[dim] > clo[dim])) continue;
+        LightBounds bucket[kBuckets];
+        int count[kBuckets] = {};
+        auto bucket_of = [&](const BuildLight& l) {
+          const int b = int(kBuckets * ((l.centroid[dim] - clo[dim]) / (chi[dim] - clo[dim])));
+          return std::clamp(b, 0, kBuckets - 1);
+        };
+        for (size_t k = start; k < end; ++k) {
+          const int b = bucket_of(items[k]);
+          bucket[b] = count[b] ? bounds_union(bucket[b], items[k].b) : items[k].b;
+          ++count[b];
+        }
+        for (int split = 0; split < kBuckets - 1; ++split) {
+          LightBounds b0, b1;
+          int n0 = 0, n1 = 0;
+          for (int i = 0; i <= split; ++i)
+            if (count[i]) b0 = n0 ? bounds_union(b0, bucket[i]) : bucket[i], n0 += count[i];
+          for (int i = split + 1; i < kBuckets; ++i)
+            if (count[i]) b1 = n1 ? bounds_union(b1, bucket[i]) : bucket[i], n1 += count[i];
+          if (!n0 || !n1) continue;
+          const double c = cost(b0, all, dim) + cost(b1, all, dim);
+          if (c < best) {
+            best = c;
+            best_dim = dim;
+            best_bucket = split;
+          }
+        }
+      }
+      if (best_dim >= 0) {
+        const int dim = best_dim;
+        auto it = std::partition(items.begin() + long(start), items.begin() + long(end), [&](const BuildLight& l) {
+          const int b = int(kBuckets * ((l.centroid[dim] - clo[dim]) / (chi[dim] - clo[dim])));
+          return std::clamp(b, 0, kBuckets - 1) <= best_bucket;
+        });
+        mid = size_t(it - items.begin());
+      }
+    }
+    if (mid == start || mid == end) {
+      // Halves by count along the centroids' widest axis.
+      const Vec3 ext = chi - clo;
+      const int dim = ext.x >= ext.y && ext.x >= ext.z ? 0 : ext.y >= ext.z ? 1 : 2;
+      mid = (start + end) / 2;
+      std::nth_element(items.begin() + long(start), items.begin() + long(mid), items.begin() + long(end),
+                       [&](const BuildLight& a, const BuildLight& b) { return a.centroid[dim] < b.centroid[dim]; });
+    }
+    build(start, mid, trail, depth + 1);
+    const uint32_t second = build(mid, end, trail | (uint64_t(1) << depth), depth + 1);
+    out.nodes[node] = {all, second, 0u};
+    return node;
+  }
+};
+
+}  // namespace
+
+LightBvhData build_light_bvh(const Light* lights, const double* power, uint32_t n) {
+  LightBvhData out;
+  out.trails.assign(n, kTrailNone);
+  std::vector<BuildLight> items;
+  for (uint32_t k = 0; k < n; ++k) {
+    if (!(power[k] > 0.0)) continue;
+    const std::optional<LightBounds> b = bounds(lights[k]);
+    if (!b) {
+      out.trails[k] = kTrailInfinite;
+      out.infinite.push_back(k);
+    } else if (b->phi > 0.f) {
+      items.push_back({*b, (b->lo + b->hi) * 0.5f, k});
+    }
+  }
+  if (!items.empty()) {
+    out.nodes.reserve(2 * items.size() - 1);
+    Builder{items, out}.build(0, items.size(), 0, 0);
+  }
+  const size_t choices = out.infinite.size() + (items.empty() ? 0 : 1);
+  out.p_infinite = choices ? float(double(out.infinite.size()) / double(choices)) : 0.f;
+  return out;
+}
+
+}  // namespace luz
