@@ -587,8 +587,10 @@ TEST(CudaPassOnHost, ThinLensAndOrthographicMatchCpu) {
   }
 }
 
-// The box also lit by a point, a spot and a directional light and an
-// environment map (the light data array uploaded and read as on the CPU).
+// The box also lit by a point, a spot (projecting a checkerboard) and a
+// directional light, an environment map and a small quad of textured
+// radiance (the light data array and the textures uploaded and read as on
+// the CPU).
 Scene cornell_lights(int res, uint32_t spp, uint64_t seed) {
   Scene s = cornell(res, spp, seed);
   const Vec3 c = (s.bounds_min + s.bounds_max) * 0.5f, ext = s.bounds_max - s.bounds_min;
@@ -616,9 +618,19 @@ Scene cornell_lights(int res, uint32_t spp, uint64_t seed) {
   env.to_world_y = env.to_local_y = {0, 1, 0};
   env.to_world_z = env.to_local_z = {0, 0, 1};
   build_envmap(env, rgb, 8, 5, s.light_data);
+  // The spot projects a checkerboard; a small quad in the box emits a second one.
+  Texture checker{CheckerboardTexture{{1.f, 0.3f, 0.1f}, {0.2f, 0.6f, 1.f}}};
+  checker.to_uv = {4.f, 0.f, 0.f, 0.f, 4.f, 0.f};
+  spot.texture = int32_t(s.add_texture(checker));
+  spot.tan_cutoff = std::tan(0.5f);
   for (const Light& l : {Light(point), Light(spot), Light(sun), Light(env)}) s.lights.push_back(l);
+  const Vec3 q = c - Vec3{0.f, 0.f, 0.3f * ext.z};
+  const float hw = 0.08f * ext.x;
+  const Color glow{8.f, 8.f, 8.f};
+  s.add_mesh({q + Vec3{-hw, -hw, 0.f}, q + Vec3{hw, -hw, 0.f}, q + Vec3{hw, hw, 0.f}, q + Vec3{-hw, hw, 0.f}}, {},
+             {0, 1, 2, 2, 3, 0}, 0, &glow, {{0.f, 0.f}, {1.f, 0.f}, {1.f, 1.f}, {0.f, 1.f}}, spot.texture);
   s.compile();
-  EXPECT_GE(s.lights.size(), 5u);
+  EXPECT_GE(s.lights.size(), 7u);
   return s;
 }
 

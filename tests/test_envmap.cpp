@@ -73,7 +73,7 @@ TEST(Envmap, MitsubaMapping) {
   const Map m = smooth_map(8, 5);
   const float scale = 1.5f;
   auto s = env_scene(m, {}, scale);
-  const float* data = s->view.lights.data;
+  const LightData& data = s->view.lights.data;
   auto texel = [&](uint32_t i, uint32_t j, int c) { return m.rgb[(size_t(j) * m.w + i) * 3 + c]; };
   for (uint32_t j = 1; j + 1 < m.h; ++j)  // not the poles, where every column meets
     for (uint32_t i = 0; i < m.w; ++i) {
@@ -101,7 +101,7 @@ TEST(Envmap, MitsubaMapping) {
 
 void check_sampling(const Map& m, const Matrix4& rotation, uint64_t seed, const char* what) {
   auto s = env_scene(m, rotation);
-  const float* data = s->view.lights.data;
+  const LightData& data = s->view.lights.data;
   const std::vector<double> prob = cell_probabilities(m);
   const size_t cells = prob.size();
   std::vector<double> observed(cells, 0.0);

@@ -55,7 +55,7 @@ D3 sub(D3 a, D3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
 D3 cross(D3 a, D3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 double len(D3 a) { return std::sqrt(chi2::dot(a, a)); }
 
-LightLeSample draw(const Light& l, const float* data, uint64_t seed, uint64_t i) {
+LightLeSample draw(const Light& l, const LightData& data, uint64_t seed, uint64_t i) {
   return sample_le(l, chi2::rand2(seed, i, 0), chi2::rand2(seed, i, 1), data, kCenter, kRadius);
 }
 bool valid(const LightLeSample& s) { return s.pdf_pos > 0.f && s.pdf_dir > 0.f; }
@@ -145,7 +145,7 @@ D3 spot_axis() { return chi2::normalized(chi2::to_d3(kSpotRotation.vector({0, 0,
 // ------------------------------------------------------------ directions
 
 // Chi-square of observe(sample) over g against pdf (double, per unit solid angle).
-void check_directions(const char* what, const Light& l, const float* data, const chi2::SphereGrid& g, uint64_t seed,
+void check_directions(const char* what, const Light& l, const LightData& data, const chi2::SphereGrid& g, uint64_t seed,
                       const std::function<Vec3(const LightLeSample&)>& observe, const std::function<double(D3)>& pdf) {
   auto sample = [&](uint64_t i, Vec3& w) {
     const LightLeSample s = draw(l, data, seed, i);
@@ -214,7 +214,7 @@ TEST(LightEmission, ConstantDirectionsChi2) {
 // space), each expecting pdf_le at its centre × sin θ · Δθ · Δφ.
 void check_envmap_directions(const char* what, const Map& m, const Matrix4& rotation, uint64_t seed) {
   auto s = env_scene(m, rotation);
-  const float* data = s->view.lights.data;
+  const LightData& data = s->view.lights.data;
   const size_t cells = size_t(m.w) * (m.h - 1);
   std::vector<double> observed(cells, 0.0), expected(cells, 0.0);
   const double dtheta = M_PI / (m.h - 1), dphi = 2 * M_PI / m.w;
@@ -255,7 +255,7 @@ TEST(LightEmission, EnvmapDirectionsChi2) {
 // ------------------------------------------------------------- positions
 
 // Chi-square of coords(sample) over a grid against density (per unit of the grid's coordinates).
-void check_positions(const char* what, const Light& l, const float* data, const chi2::Grid& g, uint64_t seed,
+void check_positions(const char* what, const Light& l, const LightData& data, const chi2::Grid& g, uint64_t seed,
                      const std::function<void(const LightLeSample&, double&, double&)>& coords,
                      const std::function<double(double, double)>& density) {
   auto sample = [&](uint64_t i, double& u, double& v) {
@@ -279,7 +279,7 @@ void plane_coords(D3 o, D3 e1, D3 e2, D3 p, double& a, double& b) {
 }
 
 // pdf_le's pdf_pos at one sample of the light (constant over each shape).
-float pdf_pos_of(const Light& l, const float* data) {
+float pdf_pos_of(const Light& l, const LightData& data) {
   const LightLeSample s = draw(l, data, 99, 0);
   return pdf_le(l, s.p, s.n, s.d, data, kRadius).pdf_pos;
 }
@@ -325,7 +325,7 @@ TEST(LightEmission, ShapePositionsChi2) {
 // Lights at infinity: each origin lies on the disk of radius r about
 // center - d r perpendicular to d; polar (ρ² / r², φ) about d, where a uniform
 // disk has density pdf_pos r² / 2.
-void check_disk(const char* what, const Light& l, const float* data, uint64_t seed) {
+void check_disk(const char* what, const Light& l, const LightData& data, uint64_t seed) {
   chi2::Grid g;
   g.nu = 10;
   g.nv = 16;
@@ -361,13 +361,13 @@ TEST(LightEmission, DiskPositionsChi2) {
 struct Case {
   std::string name;
   Light light;
-  const float* data = nullptr;
+  LightData data;
   double flux = 0.0;  // what the mean of L |cos| / (pdf_pos pdf_dir) must be
 };
 
 std::vector<Case> cases(const EnvScene& env) {
   std::vector<Case> c;
-  auto add = [&](const std::string& name, const Light& l, const float* data = nullptr, double factor = 1.0) {
+  auto add = [&](const std::string& name, const Light& l, const LightData& data = nullptr, double factor = 1.0) {
     c.push_back({name, l, data, factor * phi(l, kRadius)});
   };
   add("triangle", triangle());

@@ -24,8 +24,17 @@
 // A scene without a light (or whose lights are all black) renders, with a
 // one-line warning that the image will be black.
 //
+// A spot's projected texture (a checkerboard over the cone's tangent plane,
+// Mitsuba's direction_to_uv) against the same closed form times the texture.
+//
+// Textured area lights: a textured rectangle seen directly shows its texels
+// (radiance, not reflectance: values above 1 too); lighting a diffuse plane,
+// the NEE-only (light) and BSDF-only (bsdf) estimators agree per pixel within
+// their error bars, so light samples read the texture where rays find it.
+//
 // Bad input: a cutoff_angle outside (0, 90], a beam_width above it, negative
-// intensities, a position and a to_world together: one file:line error.
+// intensities, a position and a to_world together, textured emitters on
+// spheres or with negative texels: one file:line error.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -34,6 +43,7 @@
 
 #include "luz/device/cpu/render.h"
 #include "luz/io/error.h"
+#include "luz/io/image.h"
 #include "luz/io/scene_loader.h"
 #include "cli_helpers.h"
 #include "scene_helpers.h"
@@ -226,6 +236,137 @@ TEST_F(Lights, BadDeltaLightsAreRefused) {
   expect_refused(R"(<emitter type="point"><point name="position" x="0" y="0" z="1e30"/></emitter>)", "beyond 1e18");
   expect_refused(R"(<emitter type="point"><float name="radius" value="1"/></emitter>)", "unknown parameter 'radius'");
   expect_refused(R"(<emitter type="sunsky"/>)", "unknown top-level emitter 'sunsky'");
+}
+
+// The spot of SpotLightMatchesItsFalloff straight down with a projected
+// checkerboard (values 0.9 and 0.2, three squares per unit of uv): Mitsuba's
+// lookat frame has light-space x = up × axis = -x (world), y = +y, so the
+// plane point p is at uv = 1/2 + (-p.x, p.y) / (2 h tan(cutoff)).
+TEST_F(Lights, SpotLightProjectsItsTexture) {
+  const double h = 2.0, cutoff = 35.0 * M_PI / 180.0;
+  const double rgb[3] = {4, 4, 4};
+  auto checker = [](double u, double v) {
+    const bool a = 3 * u - std::floor(3 * u) > 0.5, b = 3 * v - std::floor(3 * v) > 0.5;
+    return a != b ? 0.9 : 0.2;
+  };
+  expect_closed_form(R"(<emitter type="spot">
+    <transform name="to_world"><lookat origin="0, 0, 2" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <float name="cutoff_angle" value="35"/><float name="beam_width" value="35"/>
+    <texture type="checkerboard" name="texture"><float name="color0" value="0.9"/><float name="color1" value="0.2"/>
+      <transform name="to_uv"><scale x="3" y="3"/></transform></texture>
+    <rgb name="intensity" value="4"/></emitter>)",
+                     [&](D3 p) {
+                       const D3 d = D3{0, 0, h} - p;
+                       const double r = norm(d);
+                       if (d.z / r <= std::cos(cutoff)) return 0.0;
+                       const double k = 0.5 / (h * std::tan(cutoff));
+                       return checker(0.5 - p.x * k, 0.5 + p.y * k) * d.z / r / (r * r);
+                     },
+                     rgb);
+}
+
+// A 4×4 float texture as the radiance of a rectangle (x, y in [-1, 1]) that
+// fills a 16×16 view square-on: every pixel lies within one texel and sees
+// its value exactly (Mitsuba's rectangle uv = ((x + 1) / 2, (y + 1) / 2),
+// texel row 0 at v = 0); the mirrored texture does not match.
+TEST_F(Lights, TexturedAreaLightShowsItsTexels) {
+  Image tex;
+  tex.width = tex.height = 4;
+  for (int j = 0; j < 4; ++j)
+    for (int i = 0; i < 4; ++i)
+      for (float c : {0.5f + 0.75f * float(i), 0.2f + 1.5f * float(j), 3.f - 0.15f * float(4 * j + i)}) tex.rgb.push_back(c);
+  write_image((dir / "glow.pfm").string(), tex);
+  const double fov = 2.0 * std::atan(0.2) * 180.0 / M_PI;  // the camera at z = 5 sees x, y in [-1, 1]
+  char fov_text[64];
+  std::snprintf(fov_text, sizeof fov_text, "%.17g", fov);
+  const Scene s = load_scene(write(
+      "glow.xml", std::string(R"(<scene version="3.0.0"><integrator type="path"/><sensor type="perspective">)") +
+                      "<float name=\"fov\" value=\"" + fov_text + "\"/>" +
+                      R"(<transform name="to_world"><lookat origin="0,0,5" target="0,0,0" up="0,1,0"/></transform>
+      <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+      <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/><rfilter type="box"/></film>
+      </sensor><shape type="rectangle"><bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>
+      <emitter type="area"><texture type="bitmap" name="radiance"><string name="filename" value="glow.pfm"/>
+      <string name="filter_type" value="nearest"/></texture></emitter></shape></scene>)"));
+  ASSERT_EQ(s.lights.size(), 2u) << "a textured quad stays two triangle lights";
+  Film f = render(s);
+  int mismatched_mirror = 0;
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) {
+      Ray r = s.camera.generate_ray(x + 0.5f, y + 0.5f);
+      const double t = -r.o.z / r.d.z, px = r.o.x + t * r.d.x, py = r.o.y + t * r.d.y;
+      const int i = int(std::floor((px + 1) / 2 * 4)), j = int(std::floor((py + 1) / 2 * 4));
+      ASSERT_TRUE(i >= 0 && i < 4 && j >= 0 && j < 4);
+      for (int c = 0; c < 3; ++c) {
+        const size_t k = 3 * (size_t(y) * 16 + x) + c;
+        const double mean = f.sum[k] / f.count[size_t(y) * 16 + x];
+        const double want = tex.rgb[3 * (size_t(j) * 4 + i) + c];
+        ASSERT_NEAR(mean, want, 1e-5 * want) << x << "," << y << " channel " << c;
+        mismatched_mirror += std::fabs(mean - tex.rgb[3 * (size_t(3 - j) * 4 + i) + c]) > 1e-3;
+      }
+    }
+  EXPECT_GT(mismatched_mirror, 384) << "the test cannot tell the texture from its mirror image";
+}
+
+// The textured rectangle above a diffuse floor: light samples (NEE only) and
+// BSDF samples (emission found by rays only) must agree. Compared over 4×4
+// pixel blocks at 256 spp: far from the light the BSDF estimator's pixels
+// are mostly 0 with rare hits, and a per-pixel sample variance would be
+// unreliable there.
+TEST_F(Lights, TexturedAreaLightAgreesAcrossEstimators) {
+  Image tex;
+  tex.width = 3, tex.height = 2;
+  tex.rgb = {8, 0.5f, 0.5f, 0.2f, 6, 0.2f, 1, 1, 1, 0.1f, 0.1f, 9, 4, 4, 0, 0, 0.3f, 3};
+  write_image((dir / "glow.pfm").string(), tex);
+  const std::string light = R"(<shape type="rectangle">
+    <transform name="to_world"><scale x="1.5" y="1"/><rotate x="1" angle="180"/><translate z="1.2"/></transform>
+    <bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>
+    <emitter type="area"><texture type="bitmap" name="radiance"><string name="filename" value="glow.pfm"/></texture></emitter>
+  </shape>)";
+  auto blocks = [&](const std::string& integrator, std::vector<double>& mean, std::vector<double>& var) {
+    Scene s = load(light, integrator);
+    s.settings.spp = 256;
+    const Film f = render(s);
+    const std::vector<double> m = luz_test::pixel_means(f), v = f.variance_of_mean();
+    mean.assign(64 * 3, 0.0), var.assign(64 * 3, 0.0);
+    for (int y = 0; y < kRes; ++y)
+      for (int x = 0; x < kRes; ++x)
+        for (int c = 0; c < 3; ++c) {
+          const size_t k = 3 * (size_t(y) * kRes + x) + c, b = 3 * (size_t(y / 4) * 8 + x / 4) + c;
+          mean[b] += m[k] / 16, var[b] += v[k] / 256;
+        }
+  };
+  std::vector<double> m1, v1, m2, v2;
+  blocks("light", m1, v1);
+  blocks("bsdf", m2, v2);
+  const double z = luz_test::sidak_z(kFamilyAlpha, double(m1.size()));
+  double worst = 0;
+  int lit = 0;
+  for (size_t k = 0; k < m1.size(); ++k) {
+    lit += m1[k] > 0.0;  // blocks of the emitter's black back are 0 in both
+    const double sd = std::sqrt(v1[k] + v2[k]) + luz_test::rounding_floor(m1[k]);
+    worst = std::max(worst, std::fabs(m1[k] - m2[k]) / sd);
+  }
+  std::printf("textured area light, light vs bsdf over 64 blocks: worst |z| %.2f (threshold %.2f), %d of 192 lit\n",
+              worst, z, lit);
+  EXPECT_LE(worst, z);
+  EXPECT_GT(lit, 100);
+}
+
+TEST_F(Lights, BadTexturedEmittersAreRefused) {
+  Image tex;
+  tex.width = 2, tex.height = 1;
+  tex.rgb = {1, 1, 1, 1, -1, 1};
+  write_image((dir / "neg.pfm").string(), tex);
+  auto expect_refused = [&](const std::string& light, const std::string& problem) {
+    luz_test::expect_load_refused(write("bad.xml", scene_xml(light)), "bad.xml", problem);
+  };
+  const std::string glow = R"(<emitter type="area"><texture type="checkerboard" name="radiance"/></emitter>)";
+  expect_refused("<shape type=\"sphere\">" + glow + "</shape>", "a textured emitter on a sphere is not supported");
+  expect_refused(R"(<shape type="rectangle"><emitter type="area"><texture type="bitmap" name="radiance">
+    <string name="filename" value="neg.pfm"/></texture></emitter></shape>)", "texel (1, 0) is negative or not finite");
+  expect_refused(R"(<emitter type="spot"><texture type="bitmap" name="texture"><string name="filename" value="none.png"/>
+    </texture></emitter>)", "no such file");
 }
 
 class LightsCli : public luz_test::LuzCliTest {};

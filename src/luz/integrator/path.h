@@ -162,7 +162,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       it = scene.interaction(ray, hit);
       if (it.emitter >= 0) {
         const Light& light = lights[uint32_t(it.emitter)];
-        Le = eval(light, it.ng, -ray.d);
+        Le = eval(light, it.ng, -ray.d, scene.hit_uv(hit), lights.data);
         if (!is_black(Le) && weigh && use_mis)
           light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(it.emitter)) * pdf_li(light, prev_ctx, ray.d, {it.ng, hit.t}, lights.data);
       }

@@ -1118,7 +1118,7 @@ class MitsubaParser {
       l.intensity = non_negative(p.get_color("intensity", {1, 1, 1}), "intensity");
       const double cutoff = p.get_float("cutoff_angle", 20.0);
       const double beam = p.get_float("beam_width", cutoff * 3.0 / 4.0);
-      if (p.has("texture")) error(p.by_name.at("texture"), "a spot light's projected texture is not supported yet");
+      l.texture = texture_param(p, "texture");  // projected over the cutoff cone
       Matrix4 to_world = p.get_transform("to_world");
       p.check_all_used();
       if (!(cutoff > 0.0 && cutoff <= 90.0)) error(n, "cutoff_angle must be in (0, 90] degrees");
@@ -1130,6 +1130,7 @@ class MitsubaParser {
       l.cos_cutoff = float(std::cos(cutoff * M_PI / 180.0));
       l.cos_beam = float(std::cos(beam * M_PI / 180.0));
       l.inv_transition = beam < cutoff ? float(1.0 / ((cutoff - beam) * M_PI / 180.0)) : 0.f;
+      l.tan_cutoff = float(std::tan(cutoff * M_PI / 180.0));
       scene_.lights.push_back(l);
     } else if (type == "directional") {
       DirectionalLight l;
@@ -1206,26 +1207,31 @@ class MitsubaParser {
     }
     if (material < 0) material = int(scene_.add_material(Bsdf::make_diffuse({0.5f, 0.5f, 0.5f})));
 
+    // An area emitter: a constant radiance or a texture (its mean kept as
+    // the radiance that power and light selection use).
     const Color* emission = nullptr;
     Color radiance;
+    int32_t emission_texture = -1;
     for (pugi::xml_node c : n.children("emitter")) {
       if (emission) error(c, "a shape takes one emitter");
       std::string et = attr(c, "type");
       if (et != "area") error(c, "unknown shape emitter '" + et + "' (supported: area)");
       check_children(c, {});
       Props ep(this, c);
-      radiance = ep.get_color("radiance", {1, 1, 1});
+      emission_texture = texture_param(ep, "radiance");
+      radiance = emission_texture >= 0 ? texture_info_[size_t(emission_texture)].mean : ep.get_color("radiance", {1, 1, 1});
       ep.check_all_used();
       for (int k = 0; k < 3; ++k)
-        if (radiance[k] < 0.f) error(c, "radiance must not be negative");
+        if (!(radiance[k] >= 0.f) || !std::isfinite(radiance[k])) error(c, "radiance must be finite and not negative");
       emission = &radiance;
     }
 
     // Textures need texture coordinates: rectangles and OBJ meshes with vt have them.
     // Only a textured shape keeps them (see read_obj).
-    const bool textured = scene_.materials[size_t(material)].num_bindings > 0;
+    const bool textured_bsdf = scene_.materials[size_t(material)].num_bindings > 0;
+    const bool textured = textured_bsdf || emission_texture >= 0;
     auto refuse_texture = [&](const char* why) {
-      if (textured) error(n, std::string("a textured bsdf on ") + why);
+      if (textured) error(n, std::string(textured_bsdf ? "a textured bsdf on " : "a textured emitter on ") + why);
     };
     std::vector<Vec3> pos, nrm;
     std::vector<Vec2> uv;
@@ -1305,7 +1311,7 @@ class MitsubaParser {
     if (flip)
       for (Vec3& v : nrm) v = -v;
     if (analytic) nrm.clear();  // flat faces: the geometric normal is exact
-    scene_.add_mesh(pos, nrm, idx, uint32_t(material), emission, uv);
+    scene_.add_mesh(pos, nrm, idx, uint32_t(material), emission, uv, emission_texture);
   }
 
   std::string path_;

@@ -54,18 +54,25 @@ LUZ_INLINE Color one_sided(Color radiance, Vec3 n, Vec3 w) { return dot(n, w) <=
 // What triangles and parallelograms share: a one-sided plane piece.
 struct PlanarLight {
   static constexpr bool kDelta = false, kEnvironment = false;
-  Color radiance;
+  Color radiance;  // for a textured light, the texture's mean (what power and bounds use)
+  int32_t texture = -1;  // LightData::textures, or -1: constant radiance
   // Set by Scene::compile, so that sampling does not recompute them at every vertex.
   Vec3 normal;  // unit, the emitting side
   float area = 0.f;
 
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit& h, const float*) const {
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit& h, const LightData&) const {
     return planar_pdf(h.n, area, wi, h.dist);
   }
-  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3 n, Vec3 d, const float*, float) const {
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3 n, Vec3 d, const LightData&, float) const {
     return area_light_le_pdf(inverse_area(area), n, d);
   }
-  LUZ_INLINE Color eval(Vec3 n, Vec3 w) const { return one_sided(radiance, n, w); }
+  // At the point of texture coordinates uv.
+  LUZ_INLINE Color radiance_at(Vec2 uv, const LightData& data) const {
+    return texture < 0 ? radiance : data.textures.eval(uint32_t(texture), uv);
+  }
+  LUZ_INLINE Color eval(Vec3 n, Vec3 w, Vec2 uv, const LightData& data) const {
+    return dot(n, w) <= 0.f ? Color{} : radiance_at(uv, data);
+  }
   double phi(float) const { return M_PI * double(area) * std::max(0.0, double(average(radiance))); }
   // Emits into the hemisphere of `normal` from within [lo, hi].
   LightBounds planar_bounds(Vec3 lo, Vec3 hi) const {
@@ -81,12 +88,23 @@ struct PlanarLight {
 struct TriangleLight : PlanarLight {
   uint32_t prim = 0;  // the triangle
   Vec3 v0, v1, v2;    // its vertices, copied: no index look-ups when sampling
+  Vec2 uv0, uv1, uv2;  // their texture coordinates (a textured light)
 
-  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const float*) const {
-    return area_light_sample(triangle_sample(v0, v1, v2, normal, area, ctx.p, u), radiance);
+  // The radiance at the point of barycentrics b (of v1, v2).
+  LUZ_INLINE Color radiance_at_barycentrics(Vec2 b, const LightData& data) const {
+    const float b0 = 1.f - b.x - b.y;
+    return radiance_at({uv0.x * b0 + uv1.x * b.x + uv2.x * b.y, uv0.y * b0 + uv1.y * b.x + uv2.y * b.y}, data);
   }
-  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float*, Vec3, float) const {
-    return area_light_le_sample(triangle_area_sample(v0, v1, v2, normal, area, u_pos), radiance, u_dir);
+  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const LightData& data) const {
+    if (texture < 0) return area_light_sample(triangle_sample(v0, v1, v2, normal, area, ctx.p, u), radiance);
+    const Vec2 b = square_to_triangle_barycentrics(u);
+    const ShapeSample ss = planar_sample(v0 * (1.f - b.x - b.y) + v1 * b.x + v2 * b.y, normal, area, ctx.p);
+    return area_light_sample(ss, radiance_at_barycentrics(b, data));
+  }
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData& data, Vec3, float) const {
+    const Vec2 b = square_to_triangle_barycentrics(u_pos);
+    return area_light_le_sample(triangle_area_sample(v0, v1, v2, normal, area, u_pos),
+                                radiance_at_barycentrics(b, data), u_dir);
   }
   LightBounds bounds() const { return planar_bounds(vmin(v0, vmin(v1, v2)), vmax(v0, vmax(v1, v2))); }
 };
@@ -95,10 +113,10 @@ struct ParallelogramLight : PlanarLight {
   uint32_t prim = 0, prim2 = 0;  // its two triangles
   Vec3 corner, e1, e2;           // points corner + u e1 + v e2
 
-  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const float*) const {
+  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const LightData&) const {
     return area_light_sample(parallelogram_sample(corner, e1, e2, normal, area, ctx.p, u), radiance);
   }
-  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float*, Vec3, float) const {
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData&, Vec3, float) const {
     return area_light_le_sample(parallelogram_area_sample(corner, e1, e2, normal, area, u_pos), radiance, u_dir);
   }
   LightBounds bounds() const {
@@ -117,21 +135,21 @@ struct SphereLight {
   float radius = 0.f;
   bool flip = false;  // emits inward
 
-  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const float*) const {
+  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const LightData&) const {
     return area_light_sample(sphere_sample(center, radius, flip, ctx.p, u), radiance);
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const float*) const {
+  LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const LightData&) const {
     return sphere_pdf(center, radius, ctx.p, h.n, wi, h.dist);
   }
   // Emitted rays: by area over the whole sphere, then cosine-weighted about
   // the emitting normal (inward when flipped).
-  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float*, Vec3, float) const {
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData&, Vec3, float) const {
     return area_light_le_sample(sphere_area_sample(center, radius, flip, u_pos), radiance, u_dir);
   }
-  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3 n, Vec3 d, const float*, float) const {
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3 n, Vec3 d, const LightData&, float) const {
     return area_light_le_pdf(sphere_area_pdf(radius), n, d);
   }
-  LUZ_INLINE Color eval(Vec3 n, Vec3 w) const { return one_sided(radiance, n, w); }
+  LUZ_INLINE Color eval(Vec3 n, Vec3 w, Vec2, const LightData&) const { return one_sided(radiance, n, w); }
   double phi(float) const {
     return M_PI * (4.0 * M_PI * double(radius) * radius) * std::max(0.0, double(average(radiance)));
   }

@@ -14,7 +14,7 @@ struct ConstantLight {
   static constexpr bool kDelta = false, kEnvironment = true;
   Color radiance;
 
-  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2 u, const float*) const {
+  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2 u, const LightData&) const {
     LightSample ls;
     ls.wi = square_to_uniform_sphere(u);
     ls.dist = kInfinity;
@@ -22,16 +22,16 @@ struct ConstantLight {
     ls.radiance = radiance;
     return ls;
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return uniform_sphere_pdf(); }
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const LightData&) const { return uniform_sphere_pdf(); }
   // Emitted rays: a uniform direction, then through the scene's disk.
-  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float* data, Vec3 scene_center,
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData& data, Vec3 scene_center,
                                      float scene_radius) const {
     return environment_le_sample(*this, u_pos, u_dir, data, scene_center, scene_radius);
   }
-  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3 d, const float* data, float scene_radius) const {
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3 d, const LightData& data, float scene_radius) const {
     return {disk_area_pdf(scene_radius), pdf_li({}, -d, {}, data)};
   }
-  LUZ_INLINE Color le(Vec3, const float*) const { return radiance; }
+  LUZ_INLINE Color le(Vec3, const LightData&) const { return radiance; }
   // The flux through the scene's bounding disk.
   double phi(float scene_radius) const {
     return M_PI * (M_PI * double(scene_radius) * scene_radius) * std::max(0.0, double(average(radiance)));

@@ -29,7 +29,7 @@ LUZ_INLINE LightLeSample infinite_le_sample(Vec3 d, Color radiance, float pdf_di
 // The emitted ray of an environment (a constant or an envmap): a direction
 // as its sample_li draws it, then through the disk as above.
 template <class Environment>
-LUZ_INLINE LightLeSample environment_le_sample(const Environment& env, Vec2 u_pos, Vec2 u_dir, const float* data,
+LUZ_INLINE LightLeSample environment_le_sample(const Environment& env, Vec2 u_pos, Vec2 u_dir, const LightData& data,
                                                Vec3 scene_center, float scene_radius) {
   const LightSample ls = env.sample_li({}, u_dir, data);
   return infinite_le_sample(-ls.wi, ls.radiance, ls.pdf, u_pos, scene_center, scene_radius);
@@ -40,7 +40,7 @@ struct DirectionalLight {
   Color irradiance;  // W/m² on a surface perpendicular to the light
   Vec3 direction;    // unit, the way the light travels
 
-  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2, const float*) const {
+  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2, const LightData&) const {
     LightSample ls;
     ls.wi = -direction;
     ls.dist = kInfinity;
@@ -49,16 +49,16 @@ struct DirectionalLight {
     ls.delta = true;
     return ls;
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return 0.f; }
-  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2, const float*, Vec3 scene_center, float scene_radius) const {
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const LightData&) const { return 0.f; }
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2, const LightData&, Vec3 scene_center, float scene_radius) const {
     LightLeSample s = infinite_le_sample(direction, irradiance, 1.f, u_pos, scene_center, scene_radius);
     s.delta_dir = true;
     return s;
   }
-  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3, const float*, float scene_radius) const {
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3, const LightData&, float scene_radius) const {
     return {disk_area_pdf(scene_radius), 1.f};
   }
-  LUZ_INLINE Color eval(Vec3, Vec3) const { return {}; }
+  LUZ_INLINE Color eval(Vec3, Vec3, Vec2, const LightData&) const { return {}; }
   // The flux through the scene's bounding disk.
   double phi(float scene_radius) const {
     return M_PI * double(scene_radius) * scene_radius * std::max(0.0, double(average(irradiance)));

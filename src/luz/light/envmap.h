@@ -72,10 +72,10 @@ struct EnvmapLight {
     return sin_theta > 0.f ? float(width) * float(height - 1) / (2.f * kPi * kPi * sin_theta) : 0.f;
   }
 
-  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2 u, const float* data) const {
+  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2 u, const LightData& data) const {
     LightSample ls;
     float density = 0.f;
-    const Vec2 st = cells.sample(data, u, density);
+    const Vec2 st = cells.sample(data.floats, u, density);
     if (!(density > 0.f)) return ls;
     const float phi = 2.f * kPi * (st.x + 0.5f) / float(width), theta = kPi * st.y / float(height - 1);
     const float sin_theta = sinf(theta);
@@ -85,26 +85,26 @@ struct EnvmapLight {
     ls.wi = normalize(to_world_x * d.x + to_world_y * d.y + to_world_z * d.z);
     ls.dist = kInfinity;
     ls.pdf = density * jac;
-    ls.radiance = lookup(data, st);
+    ls.radiance = lookup(data.floats, st);
     return ls;
   }
 
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit&, const float* data) const {
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit&, const LightData& data) const {
     const Vec3 d = to_local(wi);
-    return cells.pdf(data, grid(d)) * jacobian(d);
+    return cells.pdf(data.floats, grid(d)) * jacobian(d);
   }
   // Emitted rays: a direction as sample_li draws it (with its own density,
   // which pdf_le matches but where rounding crosses a cell edge), then
   // through the scene's disk.
-  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float* data, Vec3 scene_center,
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData& data, Vec3 scene_center,
                                      float scene_radius) const {
     return environment_le_sample(*this, u_pos, u_dir, data, scene_center, scene_radius);
   }
-  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3 d, const float* data, float scene_radius) const {
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3 d, const LightData& data, float scene_radius) const {
     return {disk_area_pdf(scene_radius), pdf_li({}, -d, {}, data)};
   }
 
-  LUZ_INLINE Color le(Vec3 dir, const float* data) const { return lookup(data, grid(to_local(dir))); }
+  LUZ_INLINE Color le(Vec3 dir, const LightData& data) const { return lookup(data.floats, grid(to_local(dir))); }
 
   double phi(float scene_radius) const {
     return M_PI * (M_PI * double(scene_radius) * scene_radius) * std::max(0.0, double(mean_radiance)) * scale;

@@ -3,12 +3,13 @@
 // struct with
 //   static constexpr bool kDelta;        // a point or a direction: found by no ray
 //   static constexpr bool kEnvironment;  // found by the rays that leave the scene
-//   LightSample sample_li(const LightSampleContext&, Vec2 u, const float* data) const;
-//   float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit&, const float* data) const;
-//   LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const float* data, Vec3 scene_center, float scene_radius) const;
-//   LightLePdf pdf_le(Vec3 p, Vec3 n, Vec3 d, const float* data, float scene_radius) const;
-//   Color eval(Vec3 n, Vec3 w) const;   // others: radiance from a surface point of normal n toward w
-//   Color le(Vec3 dir, const float* data) const;  // environments: radiance arriving along -dir, from dir
+//   LightSample sample_li(const LightSampleContext&, Vec2 u, const LightData& data) const;
+//   float pdf_li(const LightSampleContext&, Vec3 wi, const LightHit&, const LightData& data) const;
+//   LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData& data, Vec3 scene_center, float scene_radius) const;
+//   LightLePdf pdf_le(Vec3 p, Vec3 n, Vec3 d, const LightData& data, float scene_radius) const;
+//   Color eval(Vec3 n, Vec3 w, Vec2 uv, const LightData&) const;  // others: radiance from a
+//                                       // surface point of normal n and texture coordinates uv toward w
+//   Color le(Vec3 dir, const LightData& data) const;  // environments: radiance arriving along -dir, from dir
 //   double phi(float scene_radius) const;  // power (host), for light selection
 //   LightBounds bounds() const;            // (host, finite lights only) for the light BVH
 // pdf_li is the solid-angle density with which sample_li finds the light
@@ -16,8 +17,8 @@
 // emitted ray (light tracing, BDPT; pbrt-v4's SampleLe), pdf_le gives its
 // densities for a ray from p (normal n on area lights) along d; lights at
 // infinity send their rays through the disk of the scene's bounding sphere.
-// `data`: the lights' shared float array (LightsView::data), where images
-// and distributions live.
+// `data` (LightsView::data): the lights' shared float array, where images and
+// distributions live, and the scene's textures (textured area lights).
 #pragma once
 
 #include <optional>
@@ -75,33 +76,34 @@ LUZ_FORCE_INLINE decltype(auto) visit(const Light& l, F&& f) {
   }
 }
 
-LUZ_FORCE_INLINE LightSample sample_li(const Light& l, const LightSampleContext& ctx, Vec2 u, const float* data) {
+LUZ_FORCE_INLINE LightSample sample_li(const Light& l, const LightSampleContext& ctx, Vec2 u, const LightData& data) {
   return visit(l, [&](const auto& m) { return m.sample_li(ctx, u, data); });
 }
 
-LUZ_INLINE float pdf_li(const Light& l, const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const float* data) {
+LUZ_INLINE float pdf_li(const Light& l, const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const LightData& data) {
   return visit(l, [&](const auto& m) { return m.pdf_li(ctx, wi, h, data); });
 }
 
-LUZ_INLINE LightLeSample sample_le(const Light& l, Vec2 u_pos, Vec2 u_dir, const float* data, Vec3 scene_center,
+LUZ_INLINE LightLeSample sample_le(const Light& l, Vec2 u_pos, Vec2 u_dir, const LightData& data, Vec3 scene_center,
                                    float scene_radius) {
   return visit(l, [&](const auto& m) { return m.sample_le(u_pos, u_dir, data, scene_center, scene_radius); });
 }
 
-LUZ_INLINE LightLePdf pdf_le(const Light& l, Vec3 p, Vec3 n, Vec3 d, const float* data, float scene_radius) {
+LUZ_INLINE LightLePdf pdf_le(const Light& l, Vec3 p, Vec3 n, Vec3 d, const LightData& data, float scene_radius) {
   return visit(l, [&](const auto& m) { return m.pdf_le(p, n, d, data, scene_radius); });
 }
 
-// Radiance a surface light sends from a point of normal n toward w.
-LUZ_INLINE Color eval(const Light& l, Vec3 n, Vec3 w) {
+// Radiance a surface light sends from a point of normal n and texture
+// coordinates uv toward w.
+LUZ_INLINE Color eval(const Light& l, Vec3 n, Vec3 w, Vec2 uv, const LightData& data) {
   return visit(l, [&](const auto& m) {
-    if constexpr (!std::decay_t<decltype(m)>::kEnvironment) return m.eval(n, w);
+    if constexpr (!std::decay_t<decltype(m)>::kEnvironment) return m.eval(n, w, uv, data);
     else return Color{};
   });
 }
 
 // Radiance an environment sends along -dir (a ray leaving the scene along dir).
-LUZ_INLINE Color le(const Light& l, Vec3 dir, const float* data) {
+LUZ_INLINE Color le(const Light& l, Vec3 dir, const LightData& data) {
   return visit(l, [&](const auto& m) {
     if constexpr (std::decay_t<decltype(m)>::kEnvironment) return m.le(dir, data);
     else return Color{};

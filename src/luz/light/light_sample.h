@@ -2,6 +2,7 @@
 #pragma once
 
 #include "luz/math/vec.h"
+#include "luz/texture/texture.h"
 
 namespace luz {
 
@@ -10,6 +11,16 @@ namespace luz {
 // where not: a path's previous vertex keeps only its position).
 struct LightSampleContext {
   Vec3 p, n, ns;
+};
+
+// What lights read besides their own fields: the lights' shared float array
+// (images and distributions, by offset) and the scene's textures (textured
+// emission). Made from a bare float array where no light is textured.
+struct LightData {
+  const float* floats = nullptr;
+  TextureView textures;
+  LightData() = default;
+  LUZ_INLINE LightData(const float* f) : floats(f) {}
 };
 
 // A sampled direction toward a light, as seen from a reference point.

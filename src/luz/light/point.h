@@ -31,12 +31,12 @@ struct PointLight {
   Color intensity;  // W/sr
   Vec3 position;
 
-  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2, const float*) const {
+  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2, const LightData&) const {
     return point_light_sample(position, ctx.p, intensity);
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return 0.f; }
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const LightData&) const { return 0.f; }
   // Emitted rays: uniform over the sphere of directions.
-  LUZ_INLINE LightLeSample sample_le(Vec2, Vec2 u_dir, const float*, Vec3, float) const {
+  LUZ_INLINE LightLeSample sample_le(Vec2, Vec2 u_dir, const LightData&, Vec3, float) const {
     LightLeSample s;
     s.p = position;
     s.d = square_to_uniform_sphere(u_dir);
@@ -46,8 +46,8 @@ struct PointLight {
     s.delta_pos = true;
     return s;
   }
-  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3, const float*, float) const { return {1.f, uniform_sphere_pdf()}; }
-  LUZ_INLINE Color eval(Vec3, Vec3) const { return {}; }
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3, const LightData&, float) const { return {1.f, uniform_sphere_pdf()}; }
+  LUZ_INLINE Color eval(Vec3, Vec3, Vec2, const LightData&) const { return {}; }
   double phi(float) const { return 4.0 * M_PI * std::max(0.0, double(average(intensity))); }
   LightBounds bounds() const {
     LightBounds b;

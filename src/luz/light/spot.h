@@ -1,7 +1,9 @@
 // A spot light (Mitsuba's `spot`): a point light whose intensity I is full
 // within beam_width of its axis, falls off linearly in angle to 0 at
-// cutoff_angle, and is 0 beyond (Mitsuba's falloff_curve). Light space has
-// the axis along +z; to_world places it. A delta light.
+// cutoff_angle, and is 0 beyond (Mitsuba's falloff_curve), optionally times
+// a projected texture (Mitsuba's `texture`: the image spans the cutoff cone's
+// tangent plane). Light space has the axis along +z; to_world places it. A
+// delta light.
 #pragma once
 
 #include <algorithm>
@@ -19,6 +21,8 @@ struct SpotLight {
   Vec3 inv_x, inv_y, inv_z;
   float cutoff = 0.f, beam = 0.f;  // angles in radians, 0 < beam <= cutoff <= π/2
   float cos_cutoff = 1.f, cos_beam = 1.f, inv_transition = 0.f;
+  int32_t texture = -1;    // LightData::textures, or -1: none
+  float tan_cutoff = 0.f;  // the texture's extent: uv = 1/2 + (x, y) / (2 z tan(cutoff))
 
   // The falloff factor in [0, 1] toward the light-space direction d.
   LUZ_INLINE float falloff(Vec3 d) const {
@@ -38,24 +42,32 @@ struct SpotLight {
     return normalize(dot(inv_x, cross(inv_y, inv_z)) < 0.f ? -w : w);
   }
 
-  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2, const float*) const {
-    const Vec3 w = ctx.p - position;  // from the light toward the shading point
-    const float f = falloff(to_local(w));
-    if (!(f > 0.f)) return {};
-    return point_light_sample(position, ctx.p, intensity * f);
+  // The intensity toward the light-space direction v of falloff f.
+  LUZ_INLINE Color intensity_toward(Vec3 v, float f, const LightData& data) const {
+    if (texture < 0) return intensity * f;
+    const float k = 0.5f / (v.z * tan_cutoff);
+    return intensity * data.textures.eval(uint32_t(texture), {0.5f + v.x * k, 0.5f + v.y * k}) * f;
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const float*) const { return 0.f; }
+
+  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2, const LightData& data) const {
+    const Vec3 v = to_local(ctx.p - position);  // from the light toward the shading point
+    const float f = falloff(v);
+    if (!(f > 0.f)) return {};
+    return point_light_sample(position, ctx.p, intensity_toward(v, f, data));
+  }
+  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const LightData&) const { return 0.f; }
   // Emitted rays: uniform in the light-space cone cos θ > cos_cutoff (the
   // cone falloff() lights: 1 - cos_cutoff is exact in float), mapped to the
   // world; the pdf is taken from pdf_le, so that the two agree exactly.
-  LUZ_INLINE LightLeSample sample_le(Vec2, Vec2 u_dir, const float*, Vec3, float) const {
+  LUZ_INLINE LightLeSample sample_le(Vec2, Vec2 u_dir, const LightData& data, Vec3, float) const {
     LightLeSample s;
     const Vec3 d = to_world(square_to_uniform_cone(u_dir, 1.f - cos_cutoff));
     const LightLePdf pdf = pdf_le({}, {}, d, nullptr, 0.f);
     if (!(pdf.pdf_dir > 0.f)) return s;  // on the rim, lost to rounding
     s.p = position;
     s.d = d;
-    s.radiance = intensity * falloff(to_local(d));
+    const Vec3 v = to_local(d);
+    s.radiance = intensity_toward(v, falloff(v), data);
     s.pdf_pos = 1.f;
     s.pdf_dir = pdf.pdf_dir;
     s.delta_pos = true;
@@ -64,16 +76,17 @@ struct SpotLight {
   // The cone's density in light space times the solid-angle Jacobian of
   // w -> v = B w / |B w| (B = to_world's inverse), |det B| / |B w|³ for unit
   // w: 1 for a rotation, and still right when to_world scales unevenly.
-  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3 d, const float*, float) const {
+  LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3, Vec3 d, const LightData&, float) const {
     const Vec3 v = to_local(d);
     const float len = length(v);
     if (!(normalize(v).z > cos_cutoff)) return {1.f, 0.f};
     const float det = fabsf(dot(inv_x, cross(inv_y, inv_z)));
     return {1.f, uniform_cone_pdf(1.f - cos_cutoff) * det / (len * len * len)};
   }
-  LUZ_INLINE Color eval(Vec3, Vec3) const { return {}; }
+  LUZ_INLINE Color eval(Vec3, Vec3, Vec2, const LightData&) const { return {}; }
   // 2π I ∫ falloff(θ) sin θ dθ = 2π I (1 - (sin c - sin b) / (c - b)),
-  // 2π I (1 - cos c) when b = c.
+  // 2π I (1 - cos c) when b = c (a projected texture not counted: power
+  // only weighs light selection).
   double phi(float) const {
     const double b = beam, c = cutoff;
     const double solid = c - b > 1e-7 ? 1.0 - (std::sin(c) - std::sin(b)) / (c - b) : 1.0 - std::cos(c);

@@ -8,9 +8,12 @@
 namespace luz {
 
 void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
-                     uint32_t material, const Color* emission, const std::vector<Vec2>& uv) {
+                     uint32_t material, const Color* emission, const std::vector<Vec2>& uv,
+                     int32_t emission_texture) {
   uint32_t base = uint32_t(positions.size());
   if (!uv.empty() && uv.size() != pos.size()) throw std::invalid_argument("add_mesh: one texture coordinate per position");
+  if (emission_texture >= 0 && (!emission || uv.empty()))
+    throw std::invalid_argument("add_mesh: a textured emitter needs its radiance and texture coordinates");
   // Texture coordinates as normals: for all vertices or none; meshes without
   // them get (0, 0) once another mesh has some.
   if (!uv.empty() || !uvs.empty()) {
@@ -41,6 +44,7 @@ void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm,
       TriangleLight l;
       l.prim = uint32_t(tri_material.size() - 1);
       l.radiance = *emission;
+      l.texture = emission_texture;
       tri_emitter.push_back(int32_t(lights.size()));
       lights.push_back(l);
     } else {
@@ -146,7 +150,7 @@ bool parallelogram(const Vec3 a[3], const Vec3 b[3], ParallelogramLight& q) {
 }  // namespace
 
 // Consecutive emitter triangles (as the loaders add a quad's two halves) with
-// the same radiance that form a parallelogram become one Parallelogram
+// the same constant radiance that form a parallelogram become one Parallelogram
 // emitter; the triangles' tri_emitter entries then both name it. Earlier
 // merges are undone first, so a compile() after a change of geometry merges
 // what is a parallelogram now.
@@ -182,7 +186,8 @@ void Scene::merge_parallelogram_emitters() {
       const TriangleLight &ta = a.triangle, &tb = split[k + 1].triangle;
       Vec3 pa[3], pb[3];
       ParallelogramLight q;
-      if (ta.radiance.x == tb.radiance.x && ta.radiance.y == tb.radiance.y && ta.radiance.z == tb.radiance.z) {
+      if (ta.texture < 0 && tb.texture < 0 && ta.radiance.x == tb.radiance.x && ta.radiance.y == tb.radiance.y &&
+          ta.radiance.z == tb.radiance.z) {
         v.triangle(ta.prim, pa[0], pa[1], pa[2]);
         v.triangle(tb.prim, pb[0], pb[1], pb[2]);
         if (parallelogram(pa, pb, q)) {
@@ -250,6 +255,11 @@ void Scene::compile() {
         float len = length(c);
         t.area = 0.5f * len;
         t.normal = len > 0.f ? c / len : Vec3{0, 0, 1};
+        if (t.texture >= 0) {
+          t.uv0 = uvs[indices[3 * t.prim]];
+          t.uv1 = uvs[indices[3 * t.prim + 1]];
+          t.uv2 = uvs[indices[3 * t.prim + 2]];
+        }
         break;
       }
       case LightType::Parallelogram: break;  // set by merge_parallelogram_emitters
@@ -300,7 +310,8 @@ SceneView Scene::view() const {
   v.lights.sampler.n = lights_emit ? uint32_t(lights.size()) : 0;
   v.lights.sampler.power.table = {light_alias.data(), light_pmf.data(), uint32_t(light_alias.size())};
   v.lights.sampler.bvh = light_bvh.view();
-  v.lights.data = light_data.data();
+  v.lights.data.floats = light_data.data();
+  v.lights.data.textures = v.textures;
   v.camera = camera;
   v.bounds_center = (bounds_min + bounds_max) * 0.5f;
   v.bounds_radius = std::max(0.5f * length(bounds_max - bounds_min), 1e-3f);

@@ -58,10 +58,12 @@ struct Scene {
   uint32_t num_triangles() const { return uint32_t(tri_material.size()); }
 
   // Appends a triangle mesh (positions already in world space). normals may be
-  // empty, and so may uv (texture coordinates). Emitter, if >= 0, is a
-  // template copied once per triangle.
+  // empty, and so may uv (texture coordinates). With `emission`, every
+  // triangle is an area light of that radiance, or, with emission_texture
+  // >= 0 (and uv), of that texture's (emission holding its mean).
   void add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
-                uint32_t material, const Color* emission, const std::vector<Vec2>& uv = {});
+                uint32_t material, const Color* emission, const std::vector<Vec2>& uv = {},
+                int32_t emission_texture = -1);
   void add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip);
   // A material: the BSDF with its constant parameters, and the textures
   // driving the others. Returns its index.

@@ -17,7 +17,7 @@ struct LightsView {
   uint32_t num_lights = 0;
   int32_t environment = -1;  // the infinite light rays that leave the scene find, or -1
   LightSampler sampler;      // sampler.n = 0: nothing to sample (no light, or none with power)
-  const float* data = nullptr;  // images and distributions the lights address by offset
+  LightData data;  // images and distributions the lights address by offset; textures
 
   LUZ_INLINE const Light& operator[](uint32_t k) const { return list[k]; }
 };

@@ -323,7 +323,8 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.lights.sampler.bvh.nodes = up.upload(scene.light_bvh.nodes, "the light BVH");
   dev.lights.sampler.bvh.trails = up.upload(scene.light_bvh.trails, "the light BVH's bit trails");
   dev.lights.sampler.bvh.infinite = up.upload(scene.light_bvh.infinite, "the infinite lights");
-  dev.lights.data = up.upload(scene.light_data, "environment maps");
+  dev.lights.data.floats = up.upload(scene.light_data, "environment maps");
+  dev.lights.data.textures = dev.textures;
   const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres);
 
   const uint32_t per_pass = options.samples_per_pass
