@@ -18,11 +18,9 @@
 //  * Flux: the mean of average(L) |cos θ| / (pdf_pos pdf_dir) (cos about the
 //    light's normal for area lights, 1 for the others) is the power each
 //    model's phi(scene_radius) states, within a z-bound from the sample
-//    variance (plus 1e-4 relative for float rounding). For environments phi
-//    is π · π r² · mean radiance, the flux into one side of the disk; the
-//    rays sampled here cross the disk perpendicular to their own direction,
-//    from every direction, whose flux is 4π · π r² · mean radiance (pbrt-v4's
-//    Phi), so those are held to 4 phi.
+//    variance (plus 1e-4 relative for float rounding). For environments the
+//    rays cross the disk perpendicular to their own direction, from every
+//    direction: 4π · π r² · mean radiance (pbrt-v4's Phi).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -367,8 +365,8 @@ struct Case {
 
 std::vector<Case> cases(const EnvScene& env) {
   std::vector<Case> c;
-  auto add = [&](const std::string& name, const Light& l, const LightData& data = nullptr, double factor = 1.0) {
-    c.push_back({name, l, data, factor * phi(l, kRadius)});
+  auto add = [&](const std::string& name, const Light& l, const LightData& data = nullptr) {
+    c.push_back({name, l, data, phi(l, kRadius)});
   };
   add("triangle", triangle());
   add("parallelogram", parallelogram());
@@ -379,8 +377,8 @@ std::vector<Case> cases(const EnvScene& env) {
   add("spot, 70° cone", spot(70, 50, kSpotRotation));
   add("spot, no falloff", spot(30, 30, kSpotRotation));
   add("directional", directional());
-  add("constant", constant(), nullptr, 4.0);
-  add("envmap", env.light(), env.view.lights.data, 4.0);
+  add("constant", constant());
+  add("envmap", env.light(), env.view.lights.data);
   return c;
 }
 

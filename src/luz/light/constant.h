@@ -32,9 +32,11 @@ struct ConstantLight {
     return {disk_area_pdf(scene_radius), pdf_li({}, -d, {}, data)};
   }
   LUZ_INLINE Color le(Vec3, const LightData&) const { return radiance; }
-  // The flux through the scene's bounding disk.
+  // The power its emitted rays carry (sample_le): radiance from every
+  // direction through the scene's bounding disk, 4π · πr² · L (pbrt-v4's
+  // UniformInfiniteLight::Phi).
   double phi(float scene_radius) const {
-    return M_PI * (M_PI * double(scene_radius) * scene_radius) * std::max(0.0, double(average(radiance)));
+    return 4.0 * M_PI * (M_PI * double(scene_radius) * scene_radius) * std::max(0.0, double(average(radiance)));
   }
 };
 

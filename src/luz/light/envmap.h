@@ -106,8 +106,9 @@ struct EnvmapLight {
 
   LUZ_INLINE Color le(Vec3 dir, const LightData& data) const { return lookup(data.floats, grid(to_local(dir))); }
 
+  // As ConstantLight::phi, with the map's mean radiance.
   double phi(float scene_radius) const {
-    return M_PI * (M_PI * double(scene_radius) * scene_radius) * std::max(0.0, double(mean_radiance)) * scale;
+    return 4.0 * M_PI * (M_PI * double(scene_radius) * scene_radius) * std::max(0.0, double(mean_radiance)) * scale;
   }
 };
 
