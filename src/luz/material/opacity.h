@@ -8,6 +8,10 @@
 // opacity is unbiased; 0 always cuts, 1 never. The hash also takes the
 // primitive, so that layers along one ray are tested independently (pbrt-v4
 // hashes the ray alone).
+// Mitsuba 3's mask is a BSDF whose transparent part is a forward delta lobe:
+// its `path` counts passing a mask as a bounce toward max_depth and stops
+// shadow rays at masks. Luz's estimate has the same expectation, except
+// where max_depth truncates paths that pass masks.
 #pragma once
 
 #include "luz/geometry/shapes.h"
@@ -19,7 +23,7 @@ namespace luz {
 // Texture coordinates at a triangle hit, interpolated with the hit's own
 // barycentrics ((0, 0) without uvs, or on a sphere: the loader refuses
 // textures there).
-LUZ_INLINE Vec2 hit_uv(const Vec2* uvs, const uint32_t* indices, const Hit& hit) {
+LUZ_FORCE_INLINE Vec2 hit_uv(const Vec2* uvs, const uint32_t* indices, const Hit& hit) {
   if (!uvs || hit.kind != PrimKind::Triangle) return {};
   const Vec2 t0 = uvs[indices[3 * hit.prim]], t1 = uvs[indices[3 * hit.prim + 1]], t2 = uvs[indices[3 * hit.prim + 2]];
   const float b0 = 1.f - hit.u - hit.v;
