@@ -25,9 +25,12 @@
 //   - bvh_closest_hit: traversal + CLOSEST HIT (the hit record kept at the end).
 //   - bvh_any_hit: traversal + ANY HIT (terminate on first accepted hit), the
 //     shadow-ray query (optixTrace with TERMINATE_ON_FIRST_HIT).
+//   - OpacityView::keeps (material/opacity.h): the ANY HIT program of both
+//     queries, which accepts or ignores each hit on a masked material.
 #pragma once
 
 #include "luz/geometry/shapes.h"
+#include "luz/material/opacity.h"
 
 namespace luz {
 
@@ -187,6 +190,7 @@ struct BvhGeometry {
   const Vec3* positions = nullptr;
   const uint32_t* indices = nullptr;
   const Sphere* spheres = nullptr;
+  OpacityView opacity;  // the alpha test (ANY HIT program of masked materials), or empty
 };
 
 // INTERSECTION program dispatch: one tagged primitive against the ray.
@@ -264,9 +268,12 @@ LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const Ray
     } else {
       uint32_t first = bvh_leaf_first(cur), count = bvh_leaf_count(cur);
       for (uint32_t i = 0; i < count; ++i) {
-        if (bvh_intersect_prim(g, r, bvh.prims[first + i], tmax, hit)) {
+        Hit h;
+        if (bvh_intersect_prim(g, r, bvh.prims[first + i], tmax, h) &&
+            (!g.opacity.materials || g.opacity.keeps(r.o, r.d, h))) {
+          hit = h;
           if (AnyHit) return true;
-          tmax = hit.t;
+          tmax = h.t;
           found = true;
         }
       }

@@ -1949,6 +1949,7 @@ BvhTracer make_bvh_tracer(const Bvh& bvh, const SceneView& scene) {
   t.geometry.positions = scene.positions;
   t.geometry.indices = scene.indices;
   t.geometry.spheres = scene.spheres;
+  t.geometry.opacity = scene.opacity();
   return t;
 }
 

@@ -10,8 +10,31 @@ namespace luz {
 namespace {
 
 
+// A sphere geometry's user data: the spheres, or in a masked scene the
+// EmbreeAlpha (whose opacity view holds them).
+template <bool Masked>
+const Sphere& user_sphere(void* user, unsigned prim) {
+  if constexpr (Masked) return static_cast<const EmbreeAlpha*>(user)->opacity.spheres[prim];
+  else return static_cast<const Sphere*>(user)[prim];
+}
+
+// The alpha test of a sphere hit at t (Masked: a scene with masked materials).
+template <bool Masked>
+bool sphere_kept(void* user, unsigned prim, Vec3 o, Vec3 d, float t) {
+  if constexpr (Masked) {
+    Hit hit;
+    hit.t = t;
+    hit.prim = prim;
+    hit.kind = PrimKind::Sphere;
+    return static_cast<const EmbreeAlpha*>(user)->opacity.keeps(o, d, hit);
+  } else {
+    return true;
+  }
+}
+
+template <bool Masked>
 void sphere_bounds(const RTCBoundsFunctionArguments* args) {
-  const Sphere& s = static_cast<const Sphere*>(args->geometryUserPtr)[args->primID];
+  const Sphere& s = user_sphere<Masked>(args->geometryUserPtr, args->primID);
   RTCBounds* b = args->bounds_o;
   b->lower_x = s.center.x - s.radius;
   b->lower_y = s.center.y - s.radius;
@@ -22,13 +45,15 @@ void sphere_bounds(const RTCBoundsFunctionArguments* args) {
 }
 
 // Only single rays (rtcIntersect1 / rtcOccluded1) are traced, so N == 1.
+template <bool Masked>
 void sphere_intersect(const RTCIntersectFunctionNArguments* args) {
   if (!args->valid[0]) return;
-  const Sphere& s = static_cast<const Sphere*>(args->geometryUserPtr)[args->primID];
+  const Sphere& s = user_sphere<Masked>(args->geometryUserPtr, args->primID);
   RTCRayHit* rh = reinterpret_cast<RTCRayHit*>(args->rayhit);
   Vec3 o{rh->ray.org_x, rh->ray.org_y, rh->ray.org_z}, d{rh->ray.dir_x, rh->ray.dir_y, rh->ray.dir_z};
   float t = intersect_sphere(s.center, s.radius, o, d, rh->ray.tfar);
   if (!(t > rh->ray.tnear)) return;
+  if (!sphere_kept<Masked>(args->geometryUserPtr, args->primID, o, d, t)) return;
   rh->ray.tfar = t;
   rh->hit.u = rh->hit.v = 0.f;
   Vec3 n = normalize(o + d * t - s.center);
@@ -40,13 +65,33 @@ void sphere_intersect(const RTCIntersectFunctionNArguments* args) {
   rh->hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
 }
 
+template <bool Masked>
 void sphere_occluded(const RTCOccludedFunctionNArguments* args) {
   if (!args->valid[0]) return;
-  const Sphere& s = static_cast<const Sphere*>(args->geometryUserPtr)[args->primID];
+  const Sphere& s = user_sphere<Masked>(args->geometryUserPtr, args->primID);
   RTCRay* r = reinterpret_cast<RTCRay*>(args->ray);
   Vec3 o{r->org_x, r->org_y, r->org_z}, d{r->dir_x, r->dir_y, r->dir_z};
   float t = intersect_sphere(s.center, s.radius, o, d, r->tfar);
-  if (t > r->tnear) r->tfar = -kInfinity;
+  if (t > r->tnear && sphere_kept<Masked>(args->geometryUserPtr, args->primID, o, d, t)) r->tfar = -kInfinity;
+}
+
+// The alpha test on the quad geometry of a masked scene, as Embree's filter
+// function of both queries (intersect and occluded): a hit it sets invalid
+// is ignored and traversal goes on.
+void quad_alpha_filter(const RTCFilterFunctionNArguments* args) {
+  const auto& alpha = *static_cast<const EmbreeAlpha*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (!args->valid[i]) continue;
+    Hit hit;
+    hit.kind = PrimKind::Triangle;
+    EmbreeTracer::quad_hit(alpha.quads[RTCHitN_primID(args->hit, args->N, i)], RTCHitN_u(args->hit, args->N, i),
+                           RTCHitN_v(args->hit, args->N, i), hit);
+    const Vec3 o{RTCRayN_org_x(args->ray, args->N, i), RTCRayN_org_y(args->ray, args->N, i),
+                 RTCRayN_org_z(args->ray, args->N, i)};
+    const Vec3 d{RTCRayN_dir_x(args->ray, args->N, i), RTCRayN_dir_y(args->ray, args->N, i),
+                 RTCRayN_dir_z(args->ray, args->N, i)};
+    if (!alpha.opacity.keeps(o, d, hit)) args->valid[i] = 0;
+  }
 }
 
 float box_area(Vec3 lo, Vec3 hi) {
@@ -126,6 +171,10 @@ EmbreeScene::EmbreeScene(const Scene& scene) {
     const uint32_t quad[4] = {a[0], a[1], a[2], a[2]};
     quad_ix.insert(quad_ix.end(), quad, quad + 4);
   }
+  // Only a scene with masked materials runs the alpha test (and pays for it).
+  alpha_.opacity = scene.view().opacity();
+  alpha_.quads = quads_.data();
+  const bool masked = alpha_.opacity.materials != nullptr;
   if (!quad_ix.empty()) {
     RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_QUAD);
     // Embree reads vertices with 16-byte loads: its own buffers are padded.
@@ -135,6 +184,11 @@ EmbreeScene::EmbreeScene(const Scene& scene) {
     auto* ix = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4,
                                                               4 * sizeof(unsigned), quads_.size()));
     std::memcpy(ix, quad_ix.data(), quad_ix.size() * sizeof(unsigned));
+    if (masked) {
+      rtcSetGeometryUserData(g, &alpha_);
+      rtcSetGeometryIntersectFilterFunction(g, quad_alpha_filter);
+      rtcSetGeometryOccludedFilterFunction(g, quad_alpha_filter);
+    }
     rtcCommitGeometry(g);
     rtcAttachGeometryByID(scene_, g, EmbreeTracer::kQuadGeom);
     rtcReleaseGeometry(g);
@@ -143,10 +197,17 @@ EmbreeScene::EmbreeScene(const Scene& scene) {
   if (!scene.spheres.empty()) {
     RTCGeometry sph = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
     rtcSetGeometryUserPrimitiveCount(sph, unsigned(scene.spheres.size()));
-    rtcSetGeometryUserData(sph, const_cast<Sphere*>(scene.spheres.data()));
-    rtcSetGeometryBoundsFunction(sph, sphere_bounds, nullptr);
-    rtcSetGeometryIntersectFunction(sph, sphere_intersect);
-    rtcSetGeometryOccludedFunction(sph, sphere_occluded);
+    if (masked) {
+      rtcSetGeometryUserData(sph, &alpha_);
+      rtcSetGeometryBoundsFunction(sph, sphere_bounds<true>, nullptr);
+      rtcSetGeometryIntersectFunction(sph, sphere_intersect<true>);
+      rtcSetGeometryOccludedFunction(sph, sphere_occluded<true>);
+    } else {
+      rtcSetGeometryUserData(sph, const_cast<Sphere*>(scene.spheres.data()));
+      rtcSetGeometryBoundsFunction(sph, sphere_bounds<false>, nullptr);
+      rtcSetGeometryIntersectFunction(sph, sphere_intersect<false>);
+      rtcSetGeometryOccludedFunction(sph, sphere_occluded<false>);
+    }
     rtcCommitGeometry(sph);
     rtcAttachGeometryByID(scene_, sph, EmbreeTracer::kSphereGeom);
     rtcReleaseGeometry(sph);

@@ -1,6 +1,8 @@
 // CPU ray queries through Embree 3: triangles as Embree quad geometry (pairs
 // sharing an edge as one quad, see EmbreeQuad), analytic spheres as user
-// geometry running Luz's own intersect_sphere().
+// geometry running Luz's own intersect_sphere(); in a scene with masked
+// materials, the alpha test as the quads' filter function and inside the
+// spheres' functions.
 #pragma once
 
 #include <cmath>
@@ -27,6 +29,13 @@ struct EmbreeQuad {
   uint8_t slot[2][2];
 };
 
+// The alpha test's data (material/opacity.h), Embree's user data for the
+// geometry of a masked scene.
+struct EmbreeAlpha {
+  OpacityView opacity;
+  const EmbreeQuad* quads = nullptr;  // Embree quad primID -> triangles
+};
+
 class EmbreeScene {
  public:
   explicit EmbreeScene(const Scene& scene);
@@ -41,6 +50,7 @@ class EmbreeScene {
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
   std::vector<EmbreeQuad> quads_;  // Embree quad primID -> triangles
+  EmbreeAlpha alpha_;
 };
 
 // The Tracer the integrator is instantiated with on the CPU.

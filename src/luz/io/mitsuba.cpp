@@ -5,7 +5,7 @@
 // phong, blinnphong (Luz's own), conductor,
 // roughconductor, dielectric, roughdielectric, thindielectric, plastic,
 // roughplastic, ward (ward, ward-duer, balanced), blendbsdf, twosided (one or
-// two nested bsdfs), textures (bitmap: 8-bit and float images;
+// two nested bsdfs), mask (opacity: alpha-tested geometry), textures (bitmap: 8-bit and float images;
 // checkerboard) on every colour and float parameter of every bsdf and on the
 // blend weight (nested, or top-level with an id and <ref name=...>), and
 // bumpmap (accepted with a warning: the bump is not applied). Anything else is an error naming file and line: a renderer that
@@ -656,6 +656,9 @@ class MitsubaParser {
   struct ParsedBsdf {
     Bsdf bsdf;
     std::vector<TextureBinding> bindings;
+    float opacity = 1.f;          // a mask's (Material::opacity)
+    int32_t opacity_texture = -1;
+    bool masked() const { return opacity_texture >= 0 || opacity < 1.f; }
   };
 
   // One bsdf element (or a <ref> to one) nested in another.
@@ -663,7 +666,8 @@ class MitsubaParser {
     if (std::string(c.name()) != "ref") return parse_bsdf_value(c);
     const Material& m = scene_.materials[resolve_ref(c)];
     const auto first = scene_.texture_bindings.begin() + std::ptrdiff_t(m.first_binding);
-    return {m.bsdf, std::vector<TextureBinding>(first, first + std::ptrdiff_t(m.num_bindings))};
+    return {m.bsdf, std::vector<TextureBinding>(first, first + std::ptrdiff_t(m.num_bindings)), m.opacity,
+            m.opacity_texture};
   }
   // The bsdfs nested in n (<ref>s to textures are parameters, not bsdfs).
   std::vector<pugi::xml_node> nested_bsdf_nodes(pugi::xml_node n) {
@@ -706,6 +710,29 @@ class MitsubaParser {
                    path_.c_str(), line(n));
       return b;
     }
+    if (type == "mask") {
+      // Mitsuba 3's mask: `opacity` (a number or a texture's luminance, in
+      // [0, 1]) over one nested bsdf, traced as alpha-tested geometry
+      // (material/opacity.h). A mask wraps any bsdf (twosided, blendbsdf);
+      // inside a blendbsdf, a two-sided twosided or another mask it is
+      // refused (an opacity per part is not an alpha test).
+      check_children(n, {"bsdf", "ref"});
+      Props p(this, n);
+      std::vector<TextureBinding> opacity_binding;
+      const float a = float_param(n, p, "opacity", 0.5f, {}, opacity_binding);
+      p.check_all_used();
+      const int32_t t = opacity_binding.empty() ? -1 : opacity_binding[0].texture;
+      if (t >= 0 && max_component(texture_info_[size_t(t)].max) > 1.f)
+        error(n, "mask 'opacity' texture has texels above 1 (an opacity lies in [0, 1])");
+      if (!(a >= 0.f && a <= 1.f)) error(n, "mask 'opacity' must lie in [0, 1]");
+      std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
+      if (inner.size() != 1) error(n, "mask needs exactly one nested bsdf");
+      ParsedBsdf out = nested_bsdf(inner[0]);
+      if (out.masked()) error(inner[0], "a mask inside a mask is not supported");
+      out.opacity = a;
+      out.opacity_texture = t;
+      return out;
+    }
     if (type == "twosided") {
       // Mitsuba 3: one nested bsdf for both sides, or two: the first for the
       // front, the second for the back.
@@ -725,6 +752,8 @@ class MitsubaParser {
         // two-sided by nature.
         if (sides[i].bsdf.has_transmission())
           error(inner[i], "twosided cannot wrap a material that transmits light (a dielectric)");
+        if (inner.size() == 2 && sides[i].masked())
+          error(inner[i], "a mask as one side of a twosided is not supported (wrap the twosided in the mask)");
       }
       if (inner.size() == 1) {
         sides[0].bsdf.two_sided = true;
@@ -747,6 +776,7 @@ class MitsubaParser {
       std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
       if (inner.size() != 2) error(n, "blendbsdf needs exactly two nested bsdfs");
       ParsedBsdf a = nested_bsdf(inner[0]), b = nested_bsdf(inner[1]);
+      if (a.masked() || b.masked()) error(n, "a mask inside a blendbsdf is not supported (wrap the blend in the mask)");
       if (a.bsdf.blend || b.bsdf.blend) error(n, "a blendbsdf inside a blendbsdf is not supported");
       if (a.bsdf.has_back || b.bsdf.has_back)
         error(n, "a twosided with two different bsdfs inside a blendbsdf is not supported");
@@ -855,7 +885,7 @@ class MitsubaParser {
     } else {
       error(n, "unknown bsdf '" + type +
                    "' (supported: diffuse, phong, blinnphong, conductor, roughconductor, dielectric, "
-                   "roughdielectric, thindielectric, plastic, roughplastic, ward, blendbsdf, twosided, bumpmap)");
+                   "roughdielectric, thindielectric, plastic, roughplastic, ward, blendbsdf, twosided, mask, bumpmap)");
     }
     p.check_all_used();
     return out;
@@ -869,14 +899,14 @@ class MitsubaParser {
     std::string id = n.attribute("id").value();
     if (!id.empty()) {
       if (bsdfs_.count(id)) error(n, "duplicate id '" + id + "'");
-      bsdfs_[id] = scene_.add_material(b.bsdf, b.bindings);
+      bsdfs_[id] = scene_.add_material(b.bsdf, b.bindings, b.opacity, b.opacity_texture);
     }
     return b;
   }
   uint32_t parse_bsdf(pugi::xml_node n) {
     ParsedBsdf b = parse_bsdf_value(n);
     std::string id = n.attribute("id").value();
-    return id.empty() ? scene_.add_material(b.bsdf, b.bindings) : bsdfs_[id];
+    return id.empty() ? scene_.add_material(b.bsdf, b.bindings, b.opacity, b.opacity_texture) : bsdfs_[id];
   }
 
   // ---- textures ----
@@ -1225,10 +1255,14 @@ class MitsubaParser {
         if (!(radiance[k] >= 0.f) || !std::isfinite(radiance[k])) error(c, "radiance must be finite and not negative");
       emission = &radiance;
     }
+    // Light sampling would pick points on the cut-away parts too.
+    if (emission && scene_.materials[size_t(material)].masked())
+      error(n, "a masked bsdf on an emitting shape is not supported");
 
     // Textures need texture coordinates: rectangles and OBJ meshes with vt have them.
     // Only a textured shape keeps them (see read_obj).
-    const bool textured_bsdf = scene_.materials[size_t(material)].num_bindings > 0;
+    const Material& mat = scene_.materials[size_t(material)];
+    const bool textured_bsdf = mat.num_bindings > 0 || mat.opacity_texture >= 0;
     const bool textured = textured_bsdf || emission_texture >= 0;
     auto refuse_texture = [&](const char* why) {
       if (textured) error(n, std::string(textured_bsdf ? "a textured bsdf on " : "a textured emitter on ") + why);

@@ -29,12 +29,20 @@ struct Material {
   // The constant parameters; a textured one holds the texture's mean, which
   // host-side set-up (lobe sampling weights) uses, as Mitsuba's mean().
   Bsdf bsdf;
+  // Opacity (Mitsuba's mask): the chance that a ray meeting the surface stops
+  // there (material/opacity.h's alpha test); the texture's luminance when
+  // opacity_texture >= 0, else the constant. 1: opaque, no test.
+  float opacity = 1.f;
+  int32_t opacity_texture = -1;
+
+  LUZ_INLINE bool masked() const { return opacity_texture >= 0 || opacity < 1.f; }
 };
 
 struct MaterialsView {
   const Material* list = nullptr;
   const TextureBinding* bindings = nullptr;
   uint32_t count = 0;
+  bool masked = false;  // some material has an opacity below 1 (Material::masked): tracers run the alpha test
 
   // The BSDF of material m at a surface point of texture coordinates uv.
   LUZ_INLINE Bsdf bsdf(uint32_t m, const TextureView& tex, Vec2 uv) const {

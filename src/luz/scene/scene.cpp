@@ -69,9 +69,12 @@ void Scene::add_sphere(Vec3 center, float radius, uint32_t material, const Color
   spheres.push_back(s);
 }
 
-uint32_t Scene::add_material(const Bsdf& b, const std::vector<TextureBinding>& bindings) {
+uint32_t Scene::add_material(const Bsdf& b, const std::vector<TextureBinding>& bindings, float opacity,
+                             int32_t opacity_texture) {
   Material m;
   m.bsdf = b;
+  m.opacity = opacity;
+  m.opacity_texture = opacity_texture;
   m.first_binding = uint32_t(texture_bindings.size());
   m.num_bindings = uint32_t(bindings.size());
   texture_bindings.insert(texture_bindings.end(), bindings.begin(), bindings.end());
@@ -298,6 +301,7 @@ SceneView Scene::view() const {
   v.materials.list = materials.data();
   v.materials.bindings = texture_bindings.data();
   v.materials.count = uint32_t(materials.size());
+  for (const Material& m : materials) v.materials.masked |= m.masked();
   v.textures.list = textures.data();
   v.textures.texels8 = texels8.data();
   v.textures.texelsf = texelsf.data();

@@ -66,8 +66,9 @@ struct Scene {
                 int32_t emission_texture = -1);
   void add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip);
   // A material: the BSDF with its constant parameters, and the textures
-  // driving the others. Returns its index.
-  uint32_t add_material(const Bsdf& b, const std::vector<TextureBinding>& bindings = {});
+  // driving the others, and its opacity (Material::opacity). Returns its index.
+  uint32_t add_material(const Bsdf& b, const std::vector<TextureBinding>& bindings = {}, float opacity = 1.f,
+                        int32_t opacity_texture = -1);
   // Appends a bitmap's width · height texels (rows top to bottom: packed RGBA8
   // or 3 floats each); bitmap.offset and is_float are set here. Returns the
   // texture's index. Throws std::length_error past the texel arrays' limits.

@@ -6,6 +6,7 @@
 #include "luz/camera/camera.h"
 #include "luz/light/light_sampler.h"
 #include "luz/material/material.h"
+#include "luz/material/opacity.h"
 
 namespace luz {
 
@@ -93,16 +94,7 @@ struct SceneView {
     return it;
   }
 
-  // Texture coordinates at a triangle hit, interpolated with the hit's own
-  // barycentrics ((0, 0) without uvs, or on a sphere: the loader refuses
-  // textures there).
-  LUZ_INLINE Vec2 hit_uv(const Hit& hit) const {
-    if (!uvs || hit.kind != PrimKind::Triangle) return {};
-    const Vec2 t0 = uvs[indices[3 * hit.prim]], t1 = uvs[indices[3 * hit.prim + 1]],
-               t2 = uvs[indices[3 * hit.prim + 2]];
-    const float b0 = 1.f - hit.u - hit.v;
-    return {t0.x * b0 + t1.x * hit.u + t2.x * hit.v, t0.y * b0 + t1.y * hit.u + t2.y * hit.v};
-  }
+  LUZ_INLINE Vec2 hit_uv(const Hit& hit) const { return luz::hit_uv(uvs, indices, hit); }
 
   // Starts fetching the texels the material at this hit will read first
   // (TextureView::prefetch), so that their cache miss overlaps the previous
@@ -129,6 +121,12 @@ struct SceneView {
     local = Bsdf::copy_of(m.bsdf);
     materials.apply_textures(local, m, textures, hit_uv(hit));
     return local;
+  }
+
+  // What the tracers' alpha test reads: empty (no test) unless a material is masked.
+  LUZ_INLINE OpacityView opacity() const {
+    if (!materials.masked) return {};
+    return {materials.list, tri_material, indices, uvs, spheres, textures};
   }
 };
 

@@ -240,7 +240,7 @@ class Uploader {
 
 // Luz's BVH on the GPU, over geometry already uploaded.
 BvhTracer upload_tracer(Uploader& up, const Bvh& bvh, const Vec3* positions, const uint32_t* indices,
-                        const Sphere* spheres) {
+                        const Sphere* spheres, const OpacityView& opacity) {
   BvhTracer tracer;
   tracer.bvh.nodes = up.upload(bvh.nodes.data(), bvh.nodes.size(), "BVH nodes");
   tracer.bvh.num_nodes = uint32_t(bvh.nodes.size());
@@ -249,6 +249,7 @@ BvhTracer upload_tracer(Uploader& up, const Bvh& bvh, const Vec3* positions, con
   tracer.geometry.positions = positions;
   tracer.geometry.indices = indices;
   tracer.geometry.spheres = spheres;
+  tracer.geometry.opacity = opacity;
   return tracer;
 }
 
@@ -325,7 +326,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.lights.sampler.bvh.infinite = up.upload(scene.light_bvh.infinite, "the infinite lights");
   dev.lights.data.floats = up.upload(scene.light_data, "environment maps");
   dev.lights.data.textures = dev.textures;
-  const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres);
+  const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres, dev.opacity());
 
   const uint32_t per_pass = options.samples_per_pass
                                 ? std::min(std::min(options.samples_per_pass, kMaxSamplesPerPass), desc.spp)
@@ -472,7 +473,8 @@ double trace_rays_cuda(const Scene& scene, const std::vector<Ray>& rays, const s
   Uploader up;
   RayBatchParams p;
   p.tracer = upload_tracer(up, bvh, up.upload(scene.positions, "vertex positions"),
-                           up.upload(scene.indices, "triangle indices"), up.upload(scene.spheres, "spheres"));
+                           up.upload(scene.indices, "triangle indices"), up.upload(scene.spheres, "spheres"),
+                           OpacityView{});  // no materials here: masks are not tested
   p.rays = up.upload(rays, "rays");
   p.shadow = up.upload(shadow, "ray kinds");
   p.n = uint32_t(rays.size());
