@@ -29,6 +29,11 @@ struct Material {
   // The constant parameters; a textured one holds the texture's mean, which
   // host-side set-up (lobe sampling weights) uses, as Mitsuba's mean().
   Bsdf bsdf;
+  // Mitsuba's normalmap / bumpmap around the whole material (the textures,
+  // or -1; at most one is set): SceneView::shading_frame perturbs the
+  // shading frame by them, and the BSDF is evaluated in the perturbed frame.
+  int32_t normal_map = -1, bump_map = -1;
+  float bump_scale = 1.f;  // bumpmap's `scale`: multiplies the height's gradient
 };
 
 struct MaterialsView {
