@@ -167,6 +167,31 @@ Scene masked_cornell(int res, uint32_t spp, uint64_t seed) {
   return s;
 }
 
+// The textured box with a normal map on every other textured material (a
+// 4×4 float map of tilts in every direction, repeat) and a bump map (the
+// 5×3 bitmap's luminance as the height, scale 0.05) on the rest.
+Scene normal_mapped_cornell(int res, uint32_t spp, uint64_t seed) {
+  Scene s = textured_cornell(res, spp, seed);
+  std::vector<float> normals;
+  for (int k = 0; k < 16; ++k) {
+    const float a = 0.4f * float(k), tilt = 0.35f * float(k % 3);
+    normals.insert(normals.end(), {0.5f + 0.5f * std::sin(tilt) * std::cos(a), 0.5f + 0.5f * std::sin(tilt) * std::sin(a),
+                                   0.5f + 0.5f * std::cos(tilt)});
+  }
+  BitmapTexture b;
+  b.width = b.height = 4;
+  const int32_t nm = int32_t(s.add_bitmap(b, {}, normals));
+  size_t k = 0, mapped = 0;
+  for (Material& m : s.materials) {
+    if (m.num_bindings == 0) continue;
+    if (k++ % 2 == 0) m.normal_map = nm;
+    else m.bump_map = 0, m.bump_scale = 0.05f;  // texture 0: the sRGB 5×3 bitmap
+    ++mapped;
+  }
+  EXPECT_GE(mapped, 2u);
+  return s;
+}
+
 Film cpu(const Scene& s, RenderStats* stats_out = nullptr) {
   CpuRenderOptions opt;
   RenderStats stats;
@@ -692,6 +717,12 @@ TEST(CudaPassOnHost, MaskedSceneMatchesCpu) {
   expect_agree(passes_on_host(a, 16), cpu(b), "host passes vs CPU, masked, 64 spp, independent seeds");
 }
 
+// Normal and bump maps: the same frames in the pass logic as on the CPU.
+TEST(CudaPassOnHost, NormalMappedSceneMatchesCpu) {
+  Scene s = normal_mapped_cornell(64, 1, 15);
+  expect_same_samples(passes_on_host(s, 1), cpu(s), 2e-3, "host passes vs CPU, normal-mapped, 1 spp");
+}
+
 // ---------------------------------------------------------------- on a GPU
 
 #define REQUIRE_GPU()                                                          \
@@ -823,6 +854,12 @@ TEST(CudaDevice, MaskedSceneMatchesCpu) {
   REQUIRE_GPU();
   Scene a = masked_cornell(64, 256, 17), b = masked_cornell(64, 256, 18);
   expect_agree(gpu(a), cpu(b), "GPU vs CPU, masked, independent seeds");
+}
+
+// Normal and bump maps perturb the frame on the GPU as on the CPU.
+TEST(CudaDevice, NormalMappedSceneMatchesCpu) {
+  REQUIRE_GPU();
+  gpu_matches_cpu(normal_mapped_cornell, 128, 256, 16, "normal and bump maps");
 }
 
 // So are the lights and their data array.

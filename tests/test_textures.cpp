@@ -650,7 +650,7 @@ TEST_F(Staircase, LoadsAllMeshesAndTextures) {
   std::printf("[staircase] loaded in %.2f s: %u triangles, %zu textures (%zu texels), %zu materials\n", load_seconds,
               scene->num_triangles(), scene->textures.size(), scene->texels8.size(), scene->materials.size());
   EXPECT_EQ(scene->num_triangles(), 262663u);
-  EXPECT_EQ(scene->textures.size(), 9u);  // ten bitmaps; the bumpmap's is not loaded (the bump is ignored)
+  EXPECT_EQ(scene->textures.size(), 10u);  // ten bitmaps, the bumpmap's height among them
   EXPECT_EQ(scene->uvs.size(), scene->positions.size());
   EXPECT_EQ(scene->settings.integrator.max_depth, 65);
   EXPECT_EQ(scene->settings.spp, 64u);

@@ -32,6 +32,30 @@ struct Interaction {
   int32_t emitter = -1;
 };
 
+// A triangle's partial derivatives dp/du and dp/dv from its positions and
+// texture coordinates (pbrt-v4's Triangle::InteractionFromIntersection):
+// solving [uv0 - uv2, uv1 - uv2] [dp/du; dp/dv] = [p0 - p2; p1 - p2]. For
+// degenerate uvs (no parametrisation), an arbitrary frame around ng.
+LUZ_INLINE void triangle_dp_duv(Vec3 p0, Vec3 p1, Vec3 p2, Vec2 t0, Vec2 t1, Vec2 t2, Vec3 ng, Vec3& dpdu,
+                                Vec3& dpdv) {
+  const float du02 = t0.x - t2.x, dv02 = t0.y - t2.y, du12 = t1.x - t2.x, dv12 = t1.y - t2.y;
+  const Vec3 dp02 = p0 - p2, dp12 = p1 - p2;
+  const float det = du02 * dv12 - dv02 * du12;
+  bool degenerate = !(fabsf(det) >= 1e-9f);
+  if (!degenerate) {
+    const float inv = 1.f / det;
+    dpdu = (dp02 * dv12 - dp12 * dv02) * inv;
+    dpdv = (dp12 * du02 - dp02 * du12) * inv;
+    const Vec3 c = cross(dpdu, dpdv);
+    degenerate = !(dot(c, c) > 0.f) || !(dot(c, c) < kInfinity);
+  }
+  if (degenerate) {
+    const Frame f = Frame::from_normal(ng);
+    dpdu = f.s;
+    dpdv = f.t;
+  }
+}
+
 LUZ_INLINE uint32_t float_bits(float f) {
   uint32_t u;
   __builtin_memcpy(&u, &f, sizeof u);

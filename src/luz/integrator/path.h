@@ -182,7 +182,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
 
     Bsdf textured{Uninitialized{}};  // written only for a textured material
     const Bsdf& bsdf = scene.bsdf(it, hit, textured);
-    Frame frame = Frame::from_normal(it.ns);
+    const Frame frame = scene.shading_frame(it, hit);  // a normal or bump map perturbs it and it.ns
     Vec3 wo = frame.to_local(-ray.d);
     // Rays leaving this vertex start on the side of the geometric surface
     // they go to: the viewer's side (n_out) for reflection, the other for

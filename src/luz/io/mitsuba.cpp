@@ -8,7 +8,8 @@
 // two nested bsdfs), mask (opacity: alpha-tested geometry), textures (bitmap: 8-bit and float images;
 // checkerboard) on every colour and float parameter of every bsdf and on the
 // blend weight (nested, or top-level with an id and <ref name=...>), and
-// bumpmap (accepted with a warning: the bump is not applied). Anything else is an error naming file and line: a renderer that
+// normalmap and bumpmap around a whole material (see parse_bsdf_element).
+// Anything else is an error naming file and line: a renderer that
 // silently ignores what it does not know renders the wrong image.
 //
 // Scenes of Mitsuba 0.5/0.6 (version < 2.0) name parameters in camelCase:
@@ -659,7 +660,16 @@ class MitsubaParser {
     float opacity = 1.f;          // a mask's (Material::opacity)
     int32_t opacity_texture = -1;
     bool masked() const { return opacity_texture >= 0 || opacity < 1.f; }
+    int32_t normal_map = -1, bump_map = -1;  // Material's
+    float bump_scale = 1.f;
+    bool has_map() const { return normal_map >= 0 || bump_map >= 0; }
   };
+  uint32_t add_material(const ParsedBsdf& b) {
+    const uint32_t m = scene_.add_material(b.bsdf, b.bindings, b.opacity, b.opacity_texture);
+    Material& mat = scene_.materials[m];
+    mat.normal_map = b.normal_map, mat.bump_map = b.bump_map, mat.bump_scale = b.bump_scale;
+    return m;
+  }
 
   // One bsdf element (or a <ref> to one) nested in another.
   ParsedBsdf nested_bsdf(pugi::xml_node c) {
@@ -667,7 +677,7 @@ class MitsubaParser {
     const Material& m = scene_.materials[resolve_ref(c)];
     const auto first = scene_.texture_bindings.begin() + std::ptrdiff_t(m.first_binding);
     return {m.bsdf, std::vector<TextureBinding>(first, first + std::ptrdiff_t(m.num_bindings)), m.opacity,
-            m.opacity_texture};
+            m.opacity_texture, m.normal_map, m.bump_map, m.bump_scale};
   }
   // The bsdfs nested in n (<ref>s to textures are parameters, not bsdfs).
   std::vector<pugi::xml_node> nested_bsdf_nodes(pugi::xml_node n) {
@@ -695,19 +705,42 @@ class MitsubaParser {
     } depth(bsdf_depth_);
     if (bsdf_depth_ > kMaxBsdfNesting) error(n, "bsdfs nested more than " + std::to_string(kMaxBsdfNesting) + " deep");
     std::string type = attr(n, "type");
-    if (type == "bumpmap") {
-      // Not implemented: the nested bsdf is used as it is, and the scene's
-      // author is told so once per bumpmap.
+    if (type == "normalmap" || type == "bumpmap") {
+      // Mitsuba 3's adapters: a texture perturbs the shading frame, one nested
+      // bsdf is evaluated in the perturbed frame (SceneView::perturbed_frame).
+      // normalmap: the texture `normalmap`, raw (its texels are vectors);
+      // bumpmap: one texture of any name (the height: its luminance) and
+      // `scale`. Luz holds one map per material, around the whole of it: the
+      // map may wrap any bsdf, twosided and blendbsdf included, but a map
+      // inside a twosided, a blendbsdf or another map is refused below.
+      const bool bump = type == "bumpmap";
       check_children(n, {"bsdf", "ref"});
       Props p(this, n);
-      if (!p.has("map")) error(n, "bumpmap needs a <texture name=\"map\">");
-      texture_param(p, "map", false);
+      std::string map = "normalmap";
+      if (bump) {
+        std::vector<std::string> names;
+        for (const auto& [name, c] : p.by_name)
+          if (std::string(c.name()) == "texture" || std::string(c.name()) == "ref") names.push_back(name);
+        if (names.size() != 1) error(n, "bumpmap needs exactly one nested texture (the height map)");
+        map = names[0];
+      }
+      const int32_t t = texture_param(p, map.c_str());
+      if (t < 0) error(n, type + " needs a <texture name=\"" + map + "\">");
+      const float scale = bump ? float(p.get_float("scale", 1.0)) : 1.f;
       p.check_all_used();
+      if (!std::isfinite(scale)) error(n, "bumpmap 'scale' must be finite");
+      const Texture& tex = scene_.textures[size_t(t)];
+      if (!bump && tex.type == TextureType::Bitmap && !tex.bitmap.is_float && tex.bitmap.srgb)
+        error(n, "the normalmap bitmap must be raw (<boolean name=\"raw\" value=\"true\"/>): its texels are "
+                 "vectors, not sRGB colours");
+      if (bump && tex.type != TextureType::Bitmap)
+        error(n, "bumpmap needs a bitmap height map (a checkerboard has no gradient)");
       std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
-      if (inner.size() != 1) error(n, "bumpmap needs exactly one nested bsdf");
+      if (inner.size() != 1) error(n, type + " needs exactly one nested bsdf");
       ParsedBsdf b = nested_bsdf(inner[0]);
-      std::fprintf(stderr, "%s:%d: warning: bumpmap ignored: its nested bsdf is used without the bump\n",
-                   path_.c_str(), line(n));
+      if (b.has_map()) error(inner[0], "a normalmap or bumpmap inside another is not supported");
+      (bump ? b.bump_map : b.normal_map) = t;
+      b.bump_scale = scale;
       return b;
     }
     if (type == "mask") {
@@ -747,6 +780,10 @@ class MitsubaParser {
           error(inner[i], "twosided cannot wrap another twosided");
         sides[i] = nested_bsdf(inner[i]);
         if (sides[i].bsdf.has_back) error(inner[i], "twosided cannot wrap another twosided");
+        // One map per material, on both sides: Mitsuba's twosided would
+        // mirror a map inside it on the back, Luz's map outside does not.
+        if (sides[i].has_map())
+          error(inner[i], "a normalmap or bumpmap inside a twosided is not supported (put the twosided inside the map)");
         // Mitsuba 3's twosided refuses transmissive materials ("Only materials
         // without a transmission component can be nested!"): dielectrics are
         // two-sided by nature.
@@ -778,6 +815,8 @@ class MitsubaParser {
       ParsedBsdf a = nested_bsdf(inner[0]), b = nested_bsdf(inner[1]);
       if (a.masked() || b.masked()) error(n, "a mask inside a blendbsdf is not supported (wrap the blend in the mask)");
       if (a.bsdf.blend || b.bsdf.blend) error(n, "a blendbsdf inside a blendbsdf is not supported");
+      if (a.has_map() || b.has_map())
+        error(n, "a normalmap or bumpmap inside a blendbsdf is not supported (put the blendbsdf inside the map)");
       if (a.bsdf.has_back || b.bsdf.has_back)
         error(n, "a twosided with two different bsdfs inside a blendbsdf is not supported");
       if (a.bsdf.two_sided != b.bsdf.two_sided)
@@ -885,7 +924,8 @@ class MitsubaParser {
     } else {
       error(n, "unknown bsdf '" + type +
                    "' (supported: diffuse, phong, blinnphong, conductor, roughconductor, dielectric, "
-                   "roughdielectric, thindielectric, plastic, roughplastic, ward, blendbsdf, twosided, mask, bumpmap)");
+                   "roughdielectric, thindielectric, plastic, roughplastic, ward, blendbsdf, twosided, mask, "
+                   "normalmap, bumpmap)");
     }
     p.check_all_used();
     return out;
@@ -899,14 +939,14 @@ class MitsubaParser {
     std::string id = n.attribute("id").value();
     if (!id.empty()) {
       if (bsdfs_.count(id)) error(n, "duplicate id '" + id + "'");
-      bsdfs_[id] = scene_.add_material(b.bsdf, b.bindings, b.opacity, b.opacity_texture);
+      bsdfs_[id] = add_material(b);
     }
     return b;
   }
   uint32_t parse_bsdf(pugi::xml_node n) {
     ParsedBsdf b = parse_bsdf_value(n);
     std::string id = n.attribute("id").value();
-    return id.empty() ? scene_.add_material(b.bsdf, b.bindings, b.opacity, b.opacity_texture) : bsdfs_[id];
+    return id.empty() ? add_material(b) : bsdfs_[id];
   }
 
   // ---- textures ----
@@ -1259,10 +1299,10 @@ class MitsubaParser {
     if (emission && scene_.materials[size_t(material)].masked())
       error(n, "a masked bsdf on an emitting shape is not supported");
 
-    // Textures need texture coordinates: rectangles and OBJ meshes with vt have them.
-    // Only a textured shape keeps them (see read_obj).
+    // Textures, masks, normal and bump maps need texture coordinates: rectangles
+    // and OBJ meshes with vt have them. Only a textured shape keeps them (see read_obj).
     const Material& mat = scene_.materials[size_t(material)];
-    const bool textured_bsdf = mat.num_bindings > 0 || mat.opacity_texture >= 0;
+    const bool textured_bsdf = mat.num_bindings > 0 || mat.opacity_texture >= 0 || mat.normal_map >= 0 || mat.bump_map >= 0;
     const bool textured = textured_bsdf || emission_texture >= 0;
     auto refuse_texture = [&](const char* why) {
       if (textured) error(n, std::string(textured_bsdf ? "a textured bsdf on " : "a textured emitter on ") + why);

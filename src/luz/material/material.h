@@ -36,6 +36,12 @@ struct Material {
   int32_t opacity_texture = -1;
 
   LUZ_INLINE bool masked() const { return opacity_texture >= 0 || opacity < 1.f; }
+
+  // Mitsuba's normalmap / bumpmap around the whole material (the textures,
+  // or -1; at most one is set): SceneView::shading_frame perturbs the
+  // shading frame by them, and the BSDF is evaluated in the perturbed frame.
+  int32_t normal_map = -1, bump_map = -1;
+  float bump_scale = 1.f;  // bumpmap's `scale`: multiplies the height's gradient
 };
 
 struct MaterialsView {

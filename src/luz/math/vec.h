@@ -51,13 +51,25 @@ LUZ_INLINE Vec3 reflect(Vec3 v, Vec3 n) { return 2.f * dot(v, n) * n - v; }
 struct Frame {
   Vec3 s, t, n;
 
-  LUZ_INLINE static Frame from_normal(Vec3 n) {
+  LUZ_FORCE_INLINE static Frame from_normal(Vec3 n) {
     float sign = copysignf(1.f, n.z);
     float a = -1.f / (sign + n.z);
     float b = n.x * n.y * a;
     Frame f;
     f.s = {1.f + sign * n.x * n.x * a, sign * b, -sign * n.x};
     f.t = {b, sign + n.y * n.y * a, -n.y};
+    f.n = n;
+    return f;
+  }
+  // s along `tangent` made orthogonal to the unit n (Gram-Schmidt), t = n × s:
+  // Mitsuba's shading frame from dp/du. Any frame if tangent lies along n.
+  LUZ_INLINE static Frame from_normal_tangent(Vec3 n, Vec3 tangent) {
+    const Vec3 s = tangent - n * dot(n, tangent);
+    const float l2 = dot(s, s);
+    if (!(l2 > 1e-12f * dot(tangent, tangent))) return from_normal(n);
+    Frame f;
+    f.s = s * (1.f / sqrtf(l2));
+    f.t = cross(n, f.s);
     f.n = n;
     return f;
   }

@@ -96,6 +96,59 @@ struct SceneView {
 
   LUZ_INLINE Vec2 hit_uv(const Hit& hit) const { return luz::hit_uv(uvs, indices, hit); }
 
+  // The shading frame at a hit: around it.ns, or, for a material with a
+  // normal or bump map, the perturbed frame (it.ns set to its normal), in
+  // which the integrator then evaluates the BSDF as Mitsuba's normalmap and
+  // bumpmap do. Other materials pay one load and one branch. Inlined: the
+  // path loop's values live across an out-of-line call would spill.
+  LUZ_FORCE_INLINE Frame shading_frame(Interaction& it, const Hit& hit) const {
+    const Material& m = materials.list[it.material];
+    if (__builtin_expect((m.normal_map & m.bump_map) < 0, 1)) return Frame::from_normal(it.ns);  // neither map (both -1)
+    const Frame f = perturbed_frame(it.ng, it.ns, hit.kind, hit.prim, hit.u, hit.v, m);
+    it.ns = f.n;
+    return f;
+  }
+
+  // The frame of a normal or bump map (Mitsuba 3's normalmap.cpp and
+  // bumpmap.cpp) at a triangle hit (barycentrics bu, bv), from the
+  // triangle's dp/du and dp/dv:
+  //   normalmap: n = normalize(2 rgb - 1) in the tangent frame (s along
+  //     dp/du made orthogonal to ns, t = ns × s, ns), Mitsuba's shading frame;
+  //   bumpmap: the height h's uv gradient g (scaled) displaces the surface
+  //     along ns: dp'/du = dp/du + ns (g.u - ns·dp/du), likewise v, and
+  //     n = normalize(dp'/du × dp'/dv) (dn/du neglected, as Mitsuba).
+  // The new normal is turned to ng's side, as an interpolated normal is, so
+  // the integrator's side tests (against ng) apply unchanged; a degenerate
+  // one (a (0.5, 0.5, 0.5) texel) leaves the frame unperturbed. The tangent
+  // is dp/du made orthogonal to the new normal.
+  LUZ_FORCE_INLINE Frame perturbed_frame(Vec3 ng, Vec3 ns, PrimKind kind, uint32_t prim, float bu, float bv,
+                                         const Material& m) const {
+    if (kind != PrimKind::Triangle || !uvs) return Frame::from_normal(ns);  // the loader refuses these
+    Vec3 p0, p1, p2;
+    triangle(prim, p0, p1, p2);
+    const uint32_t* v = indices + 3 * size_t(prim);
+    const Vec2 t0 = uvs[v[0]], t1 = uvs[v[1]], t2 = uvs[v[2]];
+    Vec3 dpdu, dpdv;
+    triangle_dp_duv(p0, p1, p2, t0, t1, t2, ng, dpdu, dpdv);
+    const float b0 = 1.f - bu - bv;
+    const Vec2 uv{t0.x * b0 + t1.x * bu + t2.x * bv, t0.y * b0 + t1.y * bu + t2.y * bv};  // as hit_uv
+    Vec3 n;
+    if (m.normal_map >= 0) {
+      const Color c = textures.eval(uint32_t(m.normal_map), uv);
+      n = Frame::from_normal_tangent(ns, dpdu).to_world({2.f * c.x - 1.f, 2.f * c.y - 1.f, 2.f * c.z - 1.f});
+    } else {
+      const Vec2 g = textures.eval_1_grad(uint32_t(m.bump_map), uv);
+      const Vec3 du = dpdu + ns * (m.bump_scale * g.x - dot(ns, dpdu));
+      const Vec3 dv = dpdv + ns * (m.bump_scale * g.y - dot(ns, dpdv));
+      n = cross(du, dv);
+    }
+    const float len = length(n);
+    if (!(len > 0.f && len < kInfinity)) return Frame::from_normal(ns);
+    n = n / len;
+    if (dot(n, ng) < 0.f) n = -n;
+    return Frame::from_normal_tangent(n, dpdu);
+  }
+
   // Starts fetching the texels the material at this hit will read first
   // (TextureView::prefetch), so that their cache miss overlaps the previous
   // vertex's shadow ray, which path_li traces before shading this hit. No

@@ -169,6 +169,32 @@ struct TextureView {
     return bitmap(tex.bitmap, st);
   }
 
+  // The gradient (d/du, d/dv) of texture t's luminance at uv, the bilinear
+  // lookup differentiated exactly within its cell, chained through to_uv
+  // (Mitsuba 3's eval_1_grad; Mitsuba applies the resolution after to_uv's
+  // transpose, which differs only for a rotating to_uv on a non-square
+  // image). Zero for the nearest filter and the checkerboard (piecewise
+  // constant), as Mitsuba's nearest bitmap.
+  LUZ_INLINE Vec2 eval_1_grad(uint32_t t, Vec2 uv) const {
+    const Texture& tex = list[t];
+    if (tex.type != TextureType::Bitmap || tex.bitmap.filter == TextureFilter::Nearest) return {};
+    const BitmapTexture& bm = tex.bitmap;
+    const BilinearTaps b = bilinear_taps(bm, tex.to_uv.apply(uv));
+    const uint32_t w = bm.width;
+    const float f00 = luminance(texel(bm, b.j0 * w + b.i0)), f10 = luminance(texel(bm, b.j0 * w + b.i1));
+    const float f01 = luminance(texel(bm, b.j1 * w + b.i0)), f11 = luminance(texel(bm, b.j1 * w + b.i1));
+    // Per unit of the image's own coordinates (texel units times the size);
+    // a clamped coordinate outside [0, 1] reads a constant: no gradient there.
+    const UvTransform& m = tex.to_uv;
+    const Vec2 st = m.apply(uv);
+    const bool clamp_x = bm.wrap == WrapMode::Clamp && !(st.x > 0.f && st.x < 1.f);
+    const bool clamp_y = bm.wrap == WrapMode::Clamp && !(st.y > 0.f && st.y < 1.f);
+    // (Mirror needs no sign: its taps already read the texels backwards.)
+    const float gx = clamp_x ? 0.f : float(w) * ((1.f - b.fy) * (f10 - f00) + b.fy * (f11 - f01));
+    const float gy = clamp_y ? 0.f : float(bm.height) * ((1.f - b.fx) * (f01 - f00) + b.fx * (f11 - f10));
+    return {m.a * gx + m.d * gy, m.b * gx + m.e * gy};
+  }
+
   // Asks the CPU's caches for the texels eval() will read at uv (the two rows
   // of the bilinear taps; for the nearest filter, one of them): a hint with no
   // effect on any result. Nothing on the GPU. Forced inline: GCC 12 finds a

@@ -1,0 +1,246 @@
+// Mitsuba's normalmap and bumpmap (SceneView::perturbed_frame) against
+// closed forms.
+//
+// A diffuse quad (albedo ρ, Mitsuba's rectangle: uv (0,0) at its (-1,-1)
+// corner, u along its x, v along its y) seen from straight above, lit by one
+// directional light of irradiance E from direction d, direct light only: a
+// pixel's radiance is ρ/π · E · max(0, n'·(-d)), n' the perturbed normal.
+// With a constant map n' is the same everywhere and the render has no
+// randomness left (a delta light, one BSDF value), so every pixel must match
+// to float rounding.
+//   normalmap: n' = normalize(2 rgb - 1) in the frame (s, t, n), s = dp/du
+//     normalised, t = n × s: tilting along u and along v on a rotated quad
+//     tells the two tangents (and their signs) apart.
+//   bumpmap: a height h rising linearly in u (a 4×1 float bitmap, clamp
+//     wrap, bilinear: linear between the first and last texel centres) tilts
+//     n' away from the rise by atan(scale · dh/du · |du/dp|).
+// A flat map (0.5, 0.5, 1), or a constant height, renders the same image as
+// no map, bit for bit. Bad input: one file:line error each.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <functional>
+#include <string>
+
+#include "luz/io/image.h"
+#include "luz/io/scene_loader.h"
+#include "scene_helpers.h"
+#include "temp_dir.h"
+
+using namespace luz;
+
+namespace {
+
+constexpr int kRes = 16;
+constexpr double kAlbedo = 0.5, kE = 2.0;
+constexpr double kQuadScale = 10.0;  // the rectangle spans ±10: |dp/du| = |dp/dv| = 20
+
+struct D3 {
+  double x, y, z;
+};
+D3 operator+(D3 a, D3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+D3 operator*(double s, D3 a) { return {s * a.x, s * a.y, s * a.z}; }
+double dot(D3 a, D3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+D3 unit(D3 a) { return (1.0 / std::sqrt(dot(a, a))) * a; }
+
+// `bsdf`: the quad's bsdf element; the light shines along `dir`; the quad is
+// turned by `rot_deg` about z.
+std::string scene_xml(const std::string& bsdf, D3 dir, double rot_deg = 0.0) {
+  char light[256];
+  std::snprintf(light, sizeof light,
+                R"(<emitter type="directional"><vector name="direction" x="%.9g" y="%.9g" z="%.9g"/>
+    <rgb name="irradiance" value="%g"/></emitter>)",
+                dir.x, dir.y, dir.z, kE);
+  return R"(<scene version="3.0.0">
+  <integrator type="path"><integer name="max_depth" value="2"/></integrator>
+  <sensor type="perspective">
+    <float name="fov" value="40"/>
+    <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+    <film type="hdrfilm"><integer name="width" value=")" +
+         std::to_string(kRes) + R"("/><integer name="height" value=")" + std::to_string(kRes) + R"("/>
+      <rfilter type="box"/></film>
+  </sensor>
+  <shape type="rectangle">
+    <transform name="to_world"><scale value=")" +
+         std::to_string(kQuadScale) + R"("/><rotate z="1" angle=")" + std::to_string(rot_deg) + R"("/></transform>
+    )" + bsdf + R"(
+  </shape>
+  )" + light + "\n</scene>\n";
+}
+
+const std::string kDiffuse = R"(<bsdf type="diffuse"><rgb name="reflectance" value=")" + std::to_string(kAlbedo) + R"("/></bsdf>)";
+
+std::string normalmap(const std::string& file) {
+  return R"(<bsdf type="normalmap"><texture name="normalmap" type="bitmap"><string name="filename" value=")" + file +
+         R"("/><boolean name="raw" value="true"/></texture>)" + kDiffuse + "</bsdf>";
+}
+std::string bumpmap(const std::string& file, double scale) {
+  return R"(<bsdf type="bumpmap"><texture name="map" type="bitmap"><string name="filename" value=")" + file +
+         R"("/><string name="wrap_mode" value="clamp"/></texture><float name="scale" value=")" + std::to_string(scale) +
+         R"("/>)" + kDiffuse + "</bsdf>";
+}
+
+class NormalMap : public TempDirTest {
+ protected:
+  // A float bitmap (PFM: linear, exact) of w×h texels, texel (i, j) = f(i, j).
+  std::string write_map(const std::string& name, int w, int h, const std::function<D3(int, int)>& f) {
+    Image img;
+    img.width = w, img.height = h;
+    for (int j = 0; j < h; ++j)
+      for (int i = 0; i < w; ++i) {
+        const D3 c = f(i, j);
+        img.rgb.insert(img.rgb.end(), {float(c.x), float(c.y), float(c.z)});
+      }
+    const std::string path = (dir / name).string();
+    write_image(path, img);
+    return name;
+  }
+  // A constant normal map encoding the unit vector n (tangent frame).
+  std::string write_normal(const std::string& name, D3 n) {
+    return write_map(name, 2, 2, [&](int, int) { return D3{(n.x + 1) / 2, (n.y + 1) / 2, (n.z + 1) / 2}; });
+  }
+  Film render(const std::string& bsdf, D3 light_dir, double rot_deg = 0.0) {
+    Scene s = load_scene(write("scene.xml", scene_xml(bsdf, light_dir, rot_deg)));
+    return luz_test::render_finite(s);
+  }
+  // Every pixel equals ρ/π · E · max(0, n·(-d)) to float rounding.
+  static void expect_uniform(const Film& f, double want) {
+    for (size_t i = 0; i < f.count.size(); ++i)
+      for (int c = 0; c < 3; ++c) {
+        const double mean = f.sum[3 * i + c] / f.count[i];
+        ASSERT_NEAR(mean, want, 1e-5 * want + 1e-9) << "pixel " << i % kRes << "," << i / kRes;
+      }
+  }
+  static double lambert(D3 n, D3 light_dir) { return kAlbedo / M_PI * kE * std::max(0.0, -dot(unit(n), unit(light_dir))); }
+};
+
+}  // namespace
+
+TEST_F(NormalMap, FlatMapsRenderTheSameImageAsNone) {
+  const D3 d{0.3, -0.2, -1.0};
+  const Film plain = render(kDiffuse, d);
+  const Film flat = render(normalmap(write_normal("flat.pfm", {0, 0, 1})), d);
+  const Film level = render(bumpmap(write_map("level.pfm", 4, 1, [](int, int) { return D3{0.3, 0.3, 0.3}; }), 5.0), d);
+  EXPECT_EQ(plain.sum, flat.sum);
+  EXPECT_EQ(plain.sum, level.sum);
+  expect_uniform(plain, lambert({0, 0, 1}, d));
+}
+
+// Tilts of 30° along +u, +v and -u on a quad turned 35° about z: s = (cos 35°,
+// sin 35°, 0), t = (-sin 35°, cos 35°, 0). The light has different s and t
+// components, so a swapped or reversed tangent changes the cosine.
+TEST_F(NormalMap, TiltedNormalFollowsTheTangentFrame) {
+  const double rot = 35.0 * M_PI / 180.0, th = 30.0 * M_PI / 180.0;
+  const D3 s{std::cos(rot), std::sin(rot), 0}, t{-std::sin(rot), std::cos(rot), 0}, n{0, 0, 1};
+  const D3 d = unit(-1.0 * (0.6 * s + 0.15 * t + n));  // the light comes from above, towards +s, a little +t
+  struct Case {
+    const char* name;
+    D3 local;
+  } cases[] = {{"u", {std::sin(th), 0, std::cos(th)}},
+               {"v", {0, std::sin(th), std::cos(th)}},
+               {"minus_u", {-std::sin(th), 0, std::cos(th)}},
+               {"minus_v", {0, -std::sin(th), std::cos(th)}}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const Film f = render(normalmap(write_normal(std::string(c.name) + ".pfm", c.local)), d, 35.0);
+    const D3 world = c.local.x * s + c.local.y * t + c.local.z * n;
+    expect_uniform(f, lambert(world, d));
+  }
+  // The four differ from each other and from the flat quad: the test sees the frame.
+  EXPECT_GT(std::fabs(lambert({std::sin(th), 0, std::cos(th)}, {-0.6, -0.15, -1}) -
+                      lambert({0, std::sin(th), std::cos(th)}, {-0.6, -0.15, -1})),
+            0.05);
+}
+
+// h(u) = 0.25 i at texel i's centre ((i + 0.5) / 4): dh/du = 1 between the
+// first and last centres, where the whole view lies (u in [0.38, 0.62]).
+// tan(tilt) = scale · 1 / |dp/du| = scale / 20, away from the rise (-x).
+TEST_F(NormalMap, BumpRampTiltsTheNormalByItsSlope) {
+  const double scale = 20.0 * std::tan(25.0 * M_PI / 180.0);
+  const std::string ramp = write_map("ramp.pfm", 4, 1, [](int i, int) { return D3{0.25 * i, 0.25 * i, 0.25 * i}; });
+  const std::string xml = scene_xml(bumpmap(ramp, scale), {0, 0, -1});
+  Scene s = load_scene(write("frame.xml", xml));
+  const SceneView v = s.view();
+  const D3 want = unit({-scale / 20.0, 0, 1});
+  ASSERT_EQ(v.num_triangles, 2u);
+  for (uint32_t prim = 0; prim < 2; ++prim)
+    for (float bu : {0.2f, 0.45f})
+      for (float bv : {0.1f, 0.3f}) {
+        Hit hit;
+        hit.prim = prim, hit.u = bu, hit.v = bv, hit.t = 4.f;
+        Ray ray{{0, 0, 4}, {0, 0, -1}};
+        Interaction it = v.interaction(ray, hit);
+        const Vec2 uv = v.hit_uv(hit);
+        if (!(uv.x > 0.15f && uv.x < 0.85f)) continue;  // outside the ramp's linear part
+        const Frame fr = v.shading_frame(it, hit);
+        EXPECT_NEAR(fr.n.x, want.x, 1e-5) << prim << " " << bu << " " << bv;
+        EXPECT_NEAR(fr.n.y, want.y, 1e-5);
+        EXPECT_NEAR(fr.n.z, want.z, 1e-5);
+        EXPECT_EQ(it.ns.x, fr.n.x);  // it.ns follows the frame (light sampling reads it)
+        EXPECT_NEAR(dot(fr.s, fr.n), 0.f, 1e-6f);
+        EXPECT_GT(fr.s.x, 0.99f * std::cos(25.0 * M_PI / 180.0));  // the tangent stays along dp/du
+      }
+  // Rendered: lit from the side the normal turns to, and from the other.
+  for (D3 d : {D3{0.5, 0.1, -1}, D3{-0.4, 0.2, -1}}) {
+    const Film f = render(bumpmap(ramp, scale), d);
+    expect_uniform(f, lambert(want, d));
+  }
+}
+
+TEST_F(NormalMap, BadInputIsRefused) {
+  const std::string nm = write_normal("n.pfm", {0, 0, 1});
+  const std::string ramp = write_map("ramp.pfm", 4, 1, [](int i, int) { return D3{0.25 * i, 0.25 * i, 0.25 * i}; });
+  Image png;
+  png.width = png.height = 2;
+  png.rgb.assign(12, 0.5f);
+  write_image((dir / "n.png").string(), png);
+  const std::string tex = R"(<texture name="normalmap" type="bitmap"><string name="filename" value="n.pfm"/></texture>)";
+  const std::string height = R"(<texture name="map" type="bitmap"><string name="filename" value="ramp.pfm"/></texture>)";
+  struct Bad {
+    std::string bsdf, problem;
+    bool sphere = false;
+  } bad[] = {
+      {"<bsdf type=\"normalmap\">" + tex + "</bsdf>", "normalmap needs exactly one nested bsdf"},
+      {"<bsdf type=\"normalmap\">" + kDiffuse + "</bsdf>", "normalmap needs a <texture name=\"normalmap\">"},
+      {"<bsdf type=\"bumpmap\">" + height + "</bsdf>", "bumpmap needs exactly one nested bsdf"},
+      {"<bsdf type=\"bumpmap\">" + kDiffuse + "</bsdf>", "bumpmap needs exactly one nested texture"},
+      {"<bsdf type=\"normalmap\">" + tex + kDiffuse + "</bsdf>", "a textured bsdf on a sphere", true},
+      {"<bsdf type=\"bumpmap\">" + height + kDiffuse + "</bsdf>", "a textured bsdf on a sphere", true},
+      {R"(<bsdf type="normalmap"><texture name="normalmap" type="bitmap"><string name="filename" value="n.png"/></texture>)" +
+           kDiffuse + "</bsdf>",
+       "the normalmap bitmap must be raw"},
+      {R"(<bsdf type="bumpmap"><texture name="map" type="checkerboard"/>)" + kDiffuse + "</bsdf>",
+       "bumpmap needs a bitmap height map"},
+      {"<bsdf type=\"twosided\"><bsdf type=\"normalmap\">" + tex + kDiffuse + "</bsdf></bsdf>",
+       "a normalmap or bumpmap inside a twosided is not supported"},
+      {"<bsdf type=\"blendbsdf\"><bsdf type=\"bumpmap\">" + height + kDiffuse + "</bsdf>" + kDiffuse + "</bsdf>",
+       "a normalmap or bumpmap inside a blendbsdf is not supported"},
+      {"<bsdf type=\"bumpmap\">" + height + "<bsdf type=\"normalmap\">" + tex + kDiffuse + "</bsdf></bsdf>",
+       "a normalmap or bumpmap inside another is not supported"},
+  };
+  int k = 0;
+  for (const Bad& b : bad) {
+    SCOPED_TRACE(b.problem);
+    std::string xml = scene_xml(b.bsdf, {0, 0, -1});
+    if (b.sphere) {
+      const size_t a = xml.find("<shape type=\"rectangle\">"), e = xml.find("</shape>");
+      xml.replace(a, e - a, "<shape type=\"sphere\">" + b.bsdf);
+    }
+    const std::string file = "bad" + std::to_string(k++) + ".xml";
+    luz_test::expect_load_refused(write(file, xml), file, b.problem);
+  }
+}
+
+// A map around a twosided or a blendbsdf (what Luz supports) loads and renders.
+TEST_F(NormalMap, MapAroundTwosidedAndBlendLoads) {
+  const std::string nm = write_normal("n.pfm", {0, 0, 1});
+  const std::string tex = R"(<texture name="normalmap" type="bitmap"><string name="filename" value="n.pfm"/><boolean name="raw" value="true"/></texture>)";
+  for (const std::string& inner : {"<bsdf type=\"twosided\">" + kDiffuse + "</bsdf>",
+                                   "<bsdf type=\"blendbsdf\">" + kDiffuse + kDiffuse + "</bsdf>"}) {
+    Scene s = load_scene(write("ok.xml", scene_xml("<bsdf type=\"normalmap\">" + tex + inner + "</bsdf>", {0, 0, -1})));
+    ASSERT_FALSE(s.materials.empty());
+    EXPECT_GE(s.materials.back().normal_map, 0);
+    expect_uniform(luz_test::render_finite(s), lambert({0, 0, 1}, {0, 0, -1}));
+  }
+}
