@@ -58,7 +58,7 @@ constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::RoughPlastic) + 1;
 // One BSDF model: a tag and the model's parameters in a union (every model
 // is a small trivially copyable struct).
 // The tag of constructors that leave a BSDF's storage unwritten, for one
-// that is filled at once (Bsdf::copy_of).
+// that is filled at once (Bsdf::copy_live).
 struct Uninitialized {};
 
 struct BsdfComponent {
@@ -150,19 +150,17 @@ struct Bsdf : BsdfComponent {
   LUZ_INLINE Bsdf() : two_sided(false), blend(false), blend_weight(0.f), has_back(false) {}
   LUZ_INLINE explicit Bsdf(Uninitialized u) : BsdfComponent(u), second(u), back(u) {}
 
-  // A copy of what src's type and flags make live: each component in use,
+  // Becomes a copy of what src's type and flags make live: each component in use,
   // its active model only (a diffuse one is 12 bytes of the Bsdf's 552),
   // the rest of the storage left unwritten.
-  LUZ_FORCE_INLINE static Bsdf copy_of(const Bsdf& src) {
-    Bsdf b{Uninitialized{}};
-    copy_component(b, src);
-    b.two_sided = src.two_sided;
-    b.blend = src.blend;
-    b.blend_weight = src.blend_weight;
-    b.has_back = src.has_back;
-    if (src.blend) copy_component(b.second, src.second);
-    if (src.has_back) copy_component(b.back, src.back);
-    return b;
+  LUZ_FORCE_INLINE void copy_live(const Bsdf& src) {
+    copy_component(*this, src);
+    two_sided = src.two_sided;
+    blend = src.blend;
+    blend_weight = src.blend_weight;
+    has_back = src.has_back;
+    if (src.blend) copy_component(second, src.second);
+    if (src.has_back) copy_component(back, src.back);
   }
   LUZ_FORCE_INLINE static void copy_component(BsdfComponent& dst, const BsdfComponent& src) {
     dst.type = src.type;

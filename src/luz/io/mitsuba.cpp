@@ -606,9 +606,9 @@ class MitsubaParser {
     std::vector<TextureBinding> none;
     std::vector<TextureBinding>& b = tb ? *tb : none;
     const size_t before = b.size();
-    float a = float_param(n, p, "alpha", 0.1f, {BsdfParam::AlphaU, BsdfParam::AlphaV}, b);
-    au = iso ? a : float_param(n, p, "alpha_u", 0.1f, {BsdfParam::AlphaU}, b);
-    av = iso ? a : float_param(n, p, "alpha_v", 0.1f, {BsdfParam::AlphaV}, b);
+    float a = float_param(p, "alpha", 0.1f, {BsdfParam::AlphaU, BsdfParam::AlphaV}, b);
+    au = iso ? a : float_param(p, "alpha_u", 0.1f, {BsdfParam::AlphaU}, b);
+    av = iso ? a : float_param(p, "alpha_v", 0.1f, {BsdfParam::AlphaV}, b);
     if (b.size() == before && (!(au > 0.f) || !(av > 0.f)))
       error(n, "roughness (alpha, alpha_u, alpha_v) must be positive");
   }
@@ -751,13 +751,9 @@ class MitsubaParser {
       // refused (an opacity per part is not an alpha test).
       check_children(n, {"bsdf", "ref"});
       Props p(this, n);
-      std::vector<TextureBinding> opacity_binding;
-      const float a = float_param(n, p, "opacity", 0.5f, {}, opacity_binding);
+      int32_t t = -1;
+      const float a = unit_param(n, p, "mask", "opacity", 0.5f, t);
       p.check_all_used();
-      const int32_t t = opacity_binding.empty() ? -1 : opacity_binding[0].texture;
-      if (t >= 0 && max_component(texture_info_[size_t(t)].max) > 1.f)
-        error(n, "mask 'opacity' texture has texels above 1 (an opacity lies in [0, 1])");
-      if (!(a >= 0.f && a <= 1.f)) error(n, "mask 'opacity' must lie in [0, 1]");
       std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
       if (inner.size() != 1) error(n, "mask needs exactly one nested bsdf");
       ParsedBsdf out = nested_bsdf(inner[0]);
@@ -806,10 +802,9 @@ class MitsubaParser {
     if (type == "blendbsdf") {
       check_children(n, {"bsdf", "ref"});
       Props p(this, n);
-      std::vector<TextureBinding> weight_binding;
-      const float w = float_param(n, p, "weight", 0.5f, {}, weight_binding);
+      int32_t weight_texture = -1;
+      const float w = unit_param(n, p, "blendbsdf", "weight", 0.5f, weight_texture);
       p.check_all_used();
-      if (!(w >= 0.f && w <= 1.f)) error(n, "blendbsdf 'weight' must lie in [0, 1]");
       std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
       if (inner.size() != 2) error(n, "blendbsdf needs exactly two nested bsdfs");
       ParsedBsdf a = nested_bsdf(inner[0]), b = nested_bsdf(inner[1]);
@@ -824,12 +819,7 @@ class MitsubaParser {
       ParsedBsdf out{Bsdf::make_blend(a.bsdf, b.bsdf, w), a.bindings};
       move_part(b.bindings, BsdfPart::Front, BsdfPart::Second);
       out.bindings.insert(out.bindings.end(), b.bindings.begin(), b.bindings.end());
-      for (TextureBinding t : weight_binding) {
-        if (max_component(texture_info_[size_t(t.texture)].max) > 1.f)
-          error(n, "blendbsdf 'weight' texture has texels above 1 (a weight lies in [0, 1])");
-        t.part = BsdfPart::BlendWeight;
-        out.bindings.push_back(t);
-      }
+      if (weight_texture >= 0) out.bindings.push_back({weight_texture, BsdfPart::BlendWeight});
       return out;
     }
     check_children(n, {});
@@ -853,7 +843,7 @@ class MitsubaParser {
     } else if (type == "phong" || type == "blinnphong") {  // the same parameters (Mitsuba 0.6's)
       Color kd = reflectance("diffuse_reflectance", {0.5f, 0.5f, 0.5f}, BsdfParam::DiffuseReflectance);
       Color ks = reflectance("specular_reflectance", {0.2f, 0.2f, 0.2f}, BsdfParam::SpecularReflectance);
-      float e = float_param(n, p, "exponent", 30.f, {BsdfParam::Exponent}, tb);
+      float e = float_param(p, "exponent", 30.f, {BsdfParam::Exponent}, tb);
       if (!(e >= 0.f)) error(n, "exponent must be ≥ 0");
       check_sum(kd, ks);
       b = type == "phong" ? Bsdf::make_phong(kd, ks, e, false) : Bsdf::make_blinn_phong(kd, ks, e, false);
@@ -914,8 +904,8 @@ class MitsubaParser {
       if (v == "ward") variant = WardVariant::Ward;
       else if (v == "ward-duer") variant = WardVariant::WardDuer;
       else if (v != "balanced") error(n, "unknown ward variant '" + v + "' (supported: ward, ward-duer, balanced)");
-      float au = float_param(n, p, "alpha_u", 0.1f, {BsdfParam::AlphaU}, tb);
-      float av = float_param(n, p, "alpha_v", 0.1f, {BsdfParam::AlphaV}, tb);
+      float au = float_param(p, "alpha_u", 0.1f, {BsdfParam::AlphaU}, tb);
+      float av = float_param(p, "alpha_v", 0.1f, {BsdfParam::AlphaV}, tb);
       if (!(au > 0.f) || !(av > 0.f)) error(n, "roughness (alpha_u, alpha_v) must be positive");
       Color kd = reflectance("diffuse_reflectance", {0.5f, 0.5f, 0.5f}, BsdfParam::DiffuseReflectance);
       Color ks = reflectance("specular_reflectance", {0.2f, 0.2f, 0.2f}, BsdfParam::SpecularReflectance);
@@ -1122,14 +1112,27 @@ class MitsubaParser {
   // A float parameter: a number, or a texture (its luminance, Mitsuba's
   // eval_1) bound to each of `params` of the front part; returns the
   // number, or the texture's mean luminance.
-  float float_param(pugi::xml_node n, Props& p, const char* name, float def, std::initializer_list<BsdfParam> params,
+  float float_param(Props& p, const char* name, float def, std::initializer_list<BsdfParam> params,
                     std::vector<TextureBinding>& tb) {
-    (void)n;
     const int32_t t = texture_param(p, name);
     if (t < 0) return float(p.get_float(name, def));
     for (BsdfParam q : params) tb.push_back({t, BsdfPart::Front, q});
-    if (params.size() == 0) tb.push_back({t, BsdfPart::Front, BsdfParam::Reflectance});  // the caller re-targets it
     return luminance(texture_info_[size_t(t)].mean);
+  }
+  // A float in [0, 1] (a mask's opacity, a blend's weight): a number, or a
+  // texture (`texture` set; its mean luminance returned) whose texels do not
+  // exceed 1.
+  float unit_param(pugi::xml_node n, Props& p, const char* plugin, const char* name, float def, int32_t& texture) {
+    texture = texture_param(p, name);
+    const std::string what = std::string(plugin) + " '" + name + "'";
+    if (texture >= 0) {
+      if (max_component(texture_info_[size_t(texture)].max) > 1.f)
+        error(n, what + " texture has texels above 1 (it lies in [0, 1])");
+      return luminance(texture_info_[size_t(texture)].mean);
+    }
+    const float v = float(p.get_float(name, def));
+    if (!(v >= 0.f && v <= 1.f)) error(n, what + " must lie in [0, 1]");
+    return v;
   }
   // A colour parameter's greatest value: its texture's maximum when bound, else v.
   Color texture_max(const std::vector<TextureBinding>& tb, BsdfParam param, Color v) const {

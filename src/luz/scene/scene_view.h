@@ -171,7 +171,7 @@ struct SceneView {
   LUZ_FORCE_INLINE const Bsdf& bsdf(const Interaction& it, const Hit& hit, Bsdf& local) const {
     const Material& m = materials.list[it.material];
     if (m.num_bindings == 0) return m.bsdf;
-    local = Bsdf::copy_of(m.bsdf);
+    local.copy_live(m.bsdf);
     materials.apply_textures(local, m, textures, hit_uv(hit));
     return local;
   }
