@@ -1,5 +1,6 @@
-// Scene loading: Mitsuba 3 XML (pugixml) and OBJ/MTL (tinyobjloader), chosen
-// by extension. Errors are InputError: "file:line: problem".
+// Scene loading: the format follows the extension (load.cpp); each reader
+// calls a SceneBuilder (scene/scene_builder.h). Errors are InputError:
+// "file:line: problem".
 #pragma once
 
 #include <map>
@@ -11,6 +12,7 @@ namespace luz {
 
 using Defines = std::map<std::string, std::string>;
 
+// By extension: .xml (Mitsuba), .obj (OBJ/MTL).
 Scene load_scene(const std::string& path, const Defines& defines = {});
 Scene load_mitsuba(const std::string& path, const Defines& defines = {});
 Scene load_obj_scene(const std::string& path);
