@@ -5,6 +5,7 @@
 // InputError naming the file and the line or byte. Prints the load times of
 // the bunny and the staircase's 774 meshes.
 #include <gtest/gtest.h>
+#include <zlib.h>
 
 #include <bit>
 #include <chrono>
@@ -356,7 +357,7 @@ TEST(Ply, MalformedInputs) {
       {"binary truncated by 1", le.substr(0, le.size() - 1), "bad.ply: byte " + std::to_string(le.size() - 4) + ": range_grid 2: the file ends inside it"},
       {"binary truncated by 4", le.substr(0, le.size() - 4), "bad.ply: byte " + std::to_string(le.size() - 4) + ": range_grid 2: the file ends inside it"},
       {"binary truncated after header", le.substr(0, header_end), "bad.ply:5: element 'camera' declares 1 entries"},
-      {"binary trailing bytes", le + "x", "bad.ply: byte " + std::to_string(le.size()) + ": 1 bytes after the last element"},
+      {"binary trailing bytes", le + "x", "bad.ply: byte " + std::to_string(le.size()) + ": data after the last element (1 bytes"},
   };
   // Cuts inside the data that the header's minimum sizes still allow (they
   // count 3 indices per face and no items for other lists).
@@ -392,6 +393,64 @@ TEST(Ply, TruncationsAndCorruptionsAreInputErrors) {
       }
     }
   }
+}
+
+std::string gzip(const std::string& in) {
+  z_stream zs{};
+  EXPECT_EQ(deflateInit2(&zs, 9, Z_DEFLATED, 16 + MAX_WBITS, 8, Z_DEFAULT_STRATEGY), Z_OK);
+  std::string out(deflateBound(&zs, in.size()), '\0');
+  zs.next_in = (Bytef*)in.data();
+  zs.avail_in = (uInt)in.size();
+  zs.next_out = (Bytef*)out.data();
+  zs.avail_out = (uInt)out.size();
+  EXPECT_EQ(deflate(&zs, Z_FINISH), Z_STREAM_END);
+  out.resize(zs.total_out);
+  deflateEnd(&zs);
+  return out;
+}
+
+class PlyFile : public TempDirTest {};
+
+TEST_F(PlyFile, Gzip) {
+  std::string le = encode(test_mesh(), "binary_little_endian");
+  std::string gz = gzip(le);
+  expect_equal_meshes(luz::read_ply(write("mesh.ply.gz", gz)), read(le));
+
+  std::string path = write("cut.ply.gz", gz.substr(0, gz.size() / 2));
+  std::string msg;
+  try {
+    luz::read_ply(path);
+  } catch (const luz::InputError& e) {
+    msg = e.what();
+  }
+  EXPECT_EQ(msg.rfind(path + ": byte ", 0), 0u) << msg;
+  EXPECT_NE(msg.find("truncated"), std::string::npos) << msg;
+
+  // Corrupted compressed data: an InputError at a byte, or (where the
+  // damage misses the checksummed parts) a mesh.
+  std::mt19937 rng(18);
+  for (int trial = 0; trial < 300; ++trial) {
+    std::string text = gz;
+    text[2 + rng() % (text.size() - 2)] = (char)(rng() % 256);
+    path = write("bad.ply.gz", text);
+    try {
+      luz::read_ply(path);
+    } catch (const luz::InputError& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(path + ": byte ", 0), 0u) << e.what();
+    }
+  }
+
+  // An error in the decompressed data says where its byte count starts.
+  std::string bad = le + "x";
+  path = write("long.ply.gz", gzip(bad));
+  msg.clear();
+  try {
+    luz::read_ply(path);
+  } catch (const luz::InputError& e) {
+    msg = e.what();
+  }
+  EXPECT_EQ(msg, path + ": byte " + std::to_string(le.size()) +
+                     " of the decompressed data: data after the last element (1 bytes; do the header's counts match the data?)");
 }
 
 TEST(Ply, FileErrors) {

@@ -3,7 +3,9 @@
 #include <fast_float/fast_float.h>
 
 #include <sys/stat.h>
+#include <zlib.h>
 
+#include <algorithm>
 #include <bit>
 #include <cerrno>
 #include <charconv>
@@ -324,8 +326,8 @@ class BinarySource {
 
   void finish() const {
     if (pos_ != size_)
-      throw InputError(name_, 0, "byte " + std::to_string(pos_) + ": " + std::to_string(size_ - pos_) +
-                                     " bytes after the last element (do the header's counts match the data?)");
+      throw InputError(name_, 0, "byte " + std::to_string(pos_) + ": data after the last element (" +
+                                     std::to_string(size_ - pos_) + " bytes; do the header's counts match the data?)");
   }
 
  private:
@@ -556,6 +558,38 @@ PlyMesh read_ply_memory(const std::string& name, const char* data, size_t size) 
   return read_data(BinarySource(name, data, size, h), h);
 }
 
+namespace {
+
+// The data of a gzip file (pbrt-v4 reads .ply.gz), up to kMaxSize bytes: a
+// bomb is refused at that size, not when memory runs out.
+std::string gunzip(const std::string& path, const std::string& in) {
+  constexpr size_t kMaxSize = size_t(1) << 32;
+  z_stream zs{};
+  if (inflateInit2(&zs, 16 + MAX_WBITS) != Z_OK) throw InputError(path, 0, "cannot start zlib");
+  std::unique_ptr<z_stream, int (*)(z_stream*)> end(&zs, inflateEnd);
+  std::string out(std::max<size_t>(4 * in.size(), 4096), '\0');
+  zs.next_in = (Bytef*)in.data();
+  zs.avail_in = (uInt)in.size();  // read_ply refuses files of 4 GiB and more
+  for (;;) {
+    if (zs.total_out == out.size()) {
+      if (out.size() >= kMaxSize) throw InputError(path, 0, "decompresses to more than 4 GiB");
+      out.resize(std::min(2 * out.size(), kMaxSize));
+    }
+    zs.next_out = (Bytef*)out.data() + zs.total_out;
+    zs.avail_out = (uInt)std::min<size_t>(out.size() - zs.total_out, UINT32_MAX);
+    int r = inflate(&zs, Z_NO_FLUSH);
+    if (r == Z_STREAM_END) break;
+    if (r == Z_BUF_ERROR && zs.avail_in == 0)
+      throw InputError(path, 0, "byte " + std::to_string(zs.total_in) + ": the gzip data end early (truncated)");
+    if (r != Z_OK && r != Z_BUF_ERROR)
+      throw InputError(path, 0, "byte " + std::to_string(zs.total_in) + ": bad gzip data (" + (zs.msg ? zs.msg : "zlib error " + std::to_string(r)) + ")");
+  }
+  out.resize(zs.total_out);
+  return out;
+}
+
+}  // namespace
+
 PlyMesh read_ply(const std::string& path) {
   std::unique_ptr<FILE, int (*)(FILE*)> f(std::fopen(path.c_str(), "rb"), std::fclose);
   if (!f) throw InputError(path, 0, std::string("cannot open: ") + std::strerror(errno));
@@ -565,7 +599,16 @@ PlyMesh read_ply(const std::string& path) {
   std::string data((size_t)st.st_size, '\0');
   if (std::fread(data.data(), 1, data.size(), f.get()) != data.size())
     throw InputError(path, 0, "cannot read: " + std::string(std::strerror(errno)));
-  return read_ply_memory(path, data.data(), data.size());
+  if (data.size() < 2 || (uint8_t)data[0] != 0x1f || (uint8_t)data[1] != 0x8b) return read_ply_memory(path, data.data(), data.size());
+  if (data.size() >= UINT32_MAX) throw InputError(path, 0, "a gzip file of 4 GiB or more");
+  data = gunzip(path, data);
+  try {
+    return read_ply_memory(path, data.data(), data.size());
+  } catch (const InputError& e) {
+    if (e.line() > 0) throw;
+    std::string problem = e.problem();  // "byte N: ..."
+    throw InputError(path, 0, problem.insert(problem.find(':'), " of the decompressed data"));
+  }
 }
 
 }  // namespace luz

@@ -32,7 +32,8 @@ struct PlyMesh {
 // problem. A face of fewer than 3 vertices is refused, as are data after the
 // last element, non-finite positions, normals or uvs, and vertex indices out
 // of range. Vertices and faces are numbered from 0 in messages, as in the
-// file's indices.
+// file's indices. A gzip-compressed file (pbrt-v4 reads .ply.gz) is
+// recognised by its content and decompressed first.
 PlyMesh read_ply(const std::string& path);
 // The same, from memory (tests, fuzzing); `name` is the file name for messages.
 PlyMesh read_ply_memory(const std::string& name, const char* data, size_t size);
