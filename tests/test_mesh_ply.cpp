@@ -325,6 +325,8 @@ TEST(Ply, MalformedInputs) {
       {"duplicate element", kVertexHeader + "element vertex 1\n", "bad.ply:7: a second element 'vertex'"},
       {"missing vertex", "ply\nformat ascii 1.0\n" + kFaceHeader + "3 0 1 2\n", "bad.ply:5: the header declares no 'vertex'"},
       {"missing face", kVertexHeader + "end_header\n0 0 0\n1 0 0\n0 1 0\n", "bad.ply:7: the header declares no 'face'"},
+      {"tristrips", kVertexHeader + "element tristrips 1\nproperty list int int vertex_indices\nend_header\n",
+       "bad.ply:7: triangle strips (element 'tristrips') are not supported"},
       {"missing z", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n" + kFaceHeader,
        "bad.ply:4: vertex property 'x' without 'z'"},
       {"half normal", kVertexHeader + "property float nx\n" + kFaceHeader, "bad.ply:7: vertex property 'nx' without 'ny'"},

@@ -231,7 +231,11 @@ class HeaderParser {
       if (h_.elements[i].name == "face") h_.face = (int)i;
     }
     if (h_.vertex < 0) fail(end_line, "the header declares no 'vertex' element");
-    if (h_.face < 0) fail(end_line, "the header declares no 'face' element (a point cloud is not a mesh)");
+    if (h_.face < 0) {
+      for (const Element& e : h_.elements)
+        if (e.name == "tristrips") fail(e.line, "triangle strips (element 'tristrips') are not supported; faces are");
+      fail(end_line, "the header declares no 'face' element (a point cloud is not a mesh)");
+    }
     Element& v = h_.elements[h_.vertex];
     if (!group(v, {"x", "y", "z"}, Slot::X)) fail(v.line, "element 'vertex' has no x, y, z properties");
     if (v.count > UINT32_MAX) fail(v.line, "more vertices than 32-bit indices can address");
