@@ -162,8 +162,8 @@ TEST_F(Cli, SceneIsADirectory) {
 }
 
 TEST_F(Cli, UnknownSceneFormat) {
-  write_file(dir / "scene.ply", "ply\n");
-  expect_bad({"render", "scene.ply", "-o", "out.exr"}, "scene.ply", 0, "unknown scene format");
+  write_file(dir / "scene.stl", "solid x\n");
+  expect_bad({"render", "scene.stl", "-o", "out.exr"}, "scene.stl", 0, "unknown scene format");
 }
 
 TEST_F(Cli, MalformedXmlUnclosedTag) {

@@ -1,13 +1,34 @@
-// An OBJ file as a whole scene: its MTL materials as Luz materials, Ke as
-// area lights, a camera framing the bounds.
+// A mesh file as a whole scene: OBJ (its MTL materials as Luz materials,
+// Ke as area lights) or PLY (diffuse), a camera framing the bounds, and,
+// when nothing in the file emits, a uniform white sky so that the model shows.
 #include <cmath>
 
 #include "luz/io/error.h"
 #include "luz/io/load.h"
 #include "luz/io/mesh_obj.h"
+#include "luz/io/mesh_ply.h"
 #include "luz/scene/scene_builder.h"
 
 namespace luz {
+
+namespace {
+
+// The camera and settings of a mesh file rendered as a scene; a white sky
+// (radiance 1) when it has no emitter of its own.
+Scene finish_mesh_scene(SceneBuilder& builder, bool has_emitter) {
+  if (!has_emitter) {
+    ConstantLight sky;
+    sky.radiance = {1.f, 1.f, 1.f};
+    builder.add_light({}, sky);
+    builder.warn({}, "no light in the file: lit by a uniform white environment (radiance 1)");
+  }
+  builder.frame_bounds(512, 512);
+  builder.settings().spp = 64;
+  builder.settings().integrator.max_depth = -1;
+  return builder.finish();
+}
+
+}  // namespace
 
 Scene load_obj_scene(const std::string& path) {
   ObjMesh mesh = read_obj(path, true);
@@ -31,6 +52,7 @@ Scene load_obj_scene(const std::string& path) {
   const uint32_t fallback_index = builder.add_material(at, fallback);
   // Faces grouped by material, each group one mesh (sharing the positions).
   const size_t nmat = mesh.materials.size();
+  bool has_emitter = false;
   for (size_t g = 0; g <= nmat; ++g) {
     TriangleMesh part;
     for (size_t f = 0; f < mesh.face_material.size(); ++f) {
@@ -45,12 +67,24 @@ Scene load_obj_scene(const std::string& path) {
     AreaEmission area;
     const bool emits = g < nmat && !is_black(mesh.materials[g].ke);
     if (emits) area.radiance = mesh.materials[g].ke;
+    has_emitter |= emits;
     builder.add_mesh(at, std::move(part), g < nmat ? mat_index[g] : fallback_index, emits ? &area : nullptr);
   }
-  builder.frame_bounds(512, 512);
-  builder.settings().spp = 64;
-  builder.settings().integrator.max_depth = -1;
-  return builder.finish();
+  return finish_mesh_scene(builder, has_emitter);
+}
+
+Scene load_ply_scene(const std::string& path) {
+  PlyMesh ply = read_ply(path);
+  SceneBuilder builder(path);
+  MaterialDesc d;
+  d.bsdf = Bsdf::make_diffuse({0.5f, 0.5f, 0.5f}, true);
+  const uint32_t material = builder.add_material({}, d);
+  TriangleMesh mesh;
+  mesh.positions = std::move(ply.positions);
+  mesh.normals = std::move(ply.normals);
+  mesh.indices = std::move(ply.indices);
+  builder.add_mesh({}, std::move(mesh), material);
+  return finish_mesh_scene(builder, false);
 }
 
 }  // namespace luz
