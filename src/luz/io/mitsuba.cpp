@@ -1272,7 +1272,7 @@ class MitsubaParser {
       const bool flip_uv = p.get_bool("flip_tex_coords", true);
       p.check_all_used();
       const fs::path full = scene_file(n, file, "OBJ file");
-      ObjMesh mesh = read_obj(full.string(), false, textured);
+      ObjMesh mesh = read_obj(full.string(), false, textured ? ObjTexcoords::Yes : ObjTexcoords::No);
       pos = std::move(mesh.positions);
       if (!face_normals) nrm = std::move(mesh.normals);
       if (textured && mesh.texcoords.empty()) refuse_texture(("an OBJ mesh without texture coordinates ('" + file + "')").c_str());
