@@ -52,6 +52,7 @@ struct Scene {
   Camera camera;
   FovAxis fov_axis = FovAxis::X;  // what set_resolution keeps
   RenderSettings settings;
+  size_t instances = 0;  // placed by the loader (flattened into the arrays above)
   // One-line warnings of the loader ("file:line: warning: ..."), for the CLI to print.
   std::vector<std::string> warnings;
 

@@ -343,6 +343,7 @@ void SceneBuilder::frame_bounds(int width, int height) {
 Scene SceneBuilder::finish() {
   if (scene_.num_triangles() == 0 && scene_.spheres.empty()) error({}, "the scene has no shapes");
   if (!has_camera_) error({}, "the scene has no camera");
+  scene_.instances = num_instances_;
   scene_.compile();
   return std::move(scene_);
 }
