@@ -10,6 +10,8 @@
 #include <map>
 #include <tuple>
 #include <sstream>
+#include <string_view>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -19,49 +21,55 @@ namespace luz {
 
 namespace {
 
-// Whitespace-separated tokens of one line.
-std::vector<std::string> split(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (char c : line) {
-    if (c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f') {
-      if (!cur.empty()) out.push_back(std::move(cur));
-      cur.clear();
-    } else {
-      cur += c;
-    }
+// Whitespace-separated tokens of one line, into `out` (reused: no
+// allocation per line once it has grown).
+void split(std::string_view line, std::vector<std::string_view>& out) {
+  out.clear();
+  size_t k = 0;
+  auto space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; };
+  while (k < line.size()) {
+    while (k < line.size() && space(line[k])) ++k;
+    const size_t b = k;
+    while (k < line.size() && !space(line[k])) ++k;
+    if (k > b) out.push_back(line.substr(b, k - b));
   }
-  if (!cur.empty()) out.push_back(std::move(cur));
-  return out;
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string_view> v;
+  split(std::string_view(line), v);
+  return {v.begin(), v.end()};
 }
 
 // The line starting at pos, and pos moved past its end. Lines end as
 // tinyobjloader's safeGetline ends them: "\n", "\r\n" or a lone "\r" (splitting
 // at "\n" only would hide from the checks whatever follows a lone "\r").
-std::string next_line(const std::string& text, size_t& pos) {
+std::string_view next_line_view(const std::string& text, size_t& pos) {
   size_t eol = text.find_first_of("\r\n", pos);
   if (eol == std::string::npos) eol = text.size();
-  std::string line = text.substr(pos, eol - pos);
+  std::string_view line(text.data() + pos, eol - pos);
   pos = eol + (eol + 1 < text.size() && text[eol] == '\r' && text[eol + 1] == '\n' ? 2 : 1);
   return line;
 }
 
+std::string next_line(const std::string& text, size_t& pos) { return std::string(next_line_view(text, pos)); }
+
 // A finite number, or an error naming the file, the line and the value.
-void check_number(const std::string& path_, const std::string& t, int line_no, const std::string& key) {
+void check_number(const std::string& path_, std::string_view t, int line_no, std::string_view key) {
   const char* b = t.data();
   const char* e = b + t.size();
   if (b < e && *b == '+') ++b;
   float f = 0;
   auto r = std::from_chars(b, e, f);
   if (r.ptr != e || b == e || (r.ec != std::errc() && r.ec != std::errc::result_out_of_range))
-    throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a number");
+    throw InputError(path_, line_no, "'" + std::string(key) + "': '" + std::string(t) + "' is not a number");
   if (r.ec == std::errc::result_out_of_range) {
     // Out of range is an overflow, or an underflow (harmless: it reads as 0).
     double d = std::strtod(std::string(b, e).c_str(), nullptr);
     if (std::fabs(d) > 1.0)
-      throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a finite number (out of range)");
+      throw InputError(path_, line_no, "'" + std::string(key) + "': '" + std::string(t) + "' is not a finite number (out of range)");
   } else if (!std::isfinite(f)) {
-    throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a finite number");
+    throw InputError(path_, line_no, "'" + std::string(key) + "': '" + std::string(t) + "' is not a finite number");
   }
 }
 
@@ -80,21 +88,22 @@ class ObjChecker {
     for (int pass = 0; pass < 2; ++pass) {
       size_t v = 0, vt = 0, vn = 0;
       int line_no = 0;
+      std::vector<std::string_view> tok;
       for (size_t pos = 0; pos < text_.size();) {
-        std::string line = next_line(text_, pos);
+        std::string_view line = next_line_view(text_, pos);
         ++line_no;
         size_t hash = line.find('#');
-        if (hash != std::string::npos) line.resize(hash);
-        std::vector<std::string> tok = split(line);
+        if (hash != std::string_view::npos) line = line.substr(0, hash);
+        split(line, tok);
         if (tok.empty()) continue;
-        const std::string& key = tok[0];
+        const std::string_view key = tok[0];
         if (key == "v" || key == "vn" || key == "vt") {
           size_t& count = key == "v" ? v : key == "vn" ? vn : vt;
           ++count;
           if (pass == 0) continue;
           size_t need = key == "vt" ? 1 : 3;
           if (tok.size() - 1 < need)
-            throw InputError(path_, line_no, "'" + key + "' needs " + std::to_string(need) + " numbers");
+            throw InputError(path_, line_no, "'" + std::string(key) + "' needs " + std::to_string(need) + " numbers");
           for (size_t k = 1; k < tok.size(); ++k) number(tok[k], line_no, key);
         } else if (key == "f" && pass == 1) {
           if (tok.size() < 4) throw InputError(path_, line_no, "a face needs at least 3 vertices");
@@ -106,26 +115,26 @@ class ObjChecker {
   }
 
  private:
-  void number(const std::string& t, int line_no, const std::string& key) const {
+  void number(std::string_view t, int line_no, std::string_view key) const {
     check_number(path_, t, line_no, key);
   }
 
   // "v", "v/t", "v//n" or "v/t/n": each index non-zero and in range.
-  void face_vertex(const std::string& t, int line_no, size_t v, size_t vt, size_t vn) const {
-    std::string part[3];
+  void face_vertex(std::string_view t, int line_no, size_t v, size_t vt, size_t vn) const {
+    std::string_view part[3];
     int np = 0;
-    for (char c : t) {
-      if (c == '/') {
-        if (++np > 2) throw InputError(path_, line_no, "face vertex '" + t + "' is malformed");
-      } else {
-        part[np] += c;
-      }
+    size_t start = 0;
+    for (size_t k = 0; k <= t.size(); ++k) {
+      if (k < t.size() && t[k] != '/') continue;
+      if (np > 2) throw InputError(path_, line_no, "face vertex '" + std::string(t) + "' is malformed");
+      part[np++] = t.substr(start, k - start);
+      start = k + 1;
     }
     const char* what[3] = {"vertex", "texture coordinate", "normal"};
     size_t so_far[3] = {v, vt, vn}, total[3] = {total_v_, total_vt_, total_vn_};
-    for (int k = 0; k <= np; ++k) {
+    for (int k = 0; k < np; ++k) {
       if (part[k].empty()) {
-        if (k == 0) throw InputError(path_, line_no, "face vertex '" + t + "' lacks a vertex index");
+        if (k == 0) throw InputError(path_, line_no, "face vertex '" + std::string(t) + "' lacks a vertex index");
         continue;
       }
       long long i = 0;
@@ -133,11 +142,12 @@ class ObjChecker {
       const char* e = b + part[k].size();
       auto r = std::from_chars(b, e, i);
       if (r.ec != std::errc() || r.ptr != e)
-        throw InputError(path_, line_no, "face vertex '" + t + "': '" + part[k] + "' is not an index");
+        throw InputError(path_, line_no,
+                         "face vertex '" + std::string(t) + "': '" + std::string(part[k]) + "' is not an index");
       bool ok = i > 0 ? size_t(i) <= total[k] : i < 0 && size_t(-i) <= so_far[k];
       if (!ok)
         throw InputError(path_, line_no,
-                         std::string(what[k]) + " index " + part[k] + " is out of range (" +
+                         std::string(what[k]) + " index " + std::string(part[k]) + " is out of range (" +
                              std::to_string(i > 0 ? total[k] : so_far[k]) + " defined)");
     }
   }
@@ -305,7 +315,15 @@ ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texc
       if (idx.texcoord_index < 0) all_texcoords = false;
     }
 
-  std::map<std::tuple<int, int, int>, uint32_t> remap;
+  // De-indexing: one vertex per distinct (position, normal, uv) index triple.
+  struct TripleHash {
+    size_t operator()(const std::tuple<int, int, int>& k) const {
+      const uint64_t a = uint32_t(std::get<0>(k)), b = uint32_t(std::get<1>(k)), c = uint32_t(std::get<2>(k));
+      return size_t((a * 0x9E3779B97F4A7C15ull) ^ (b * 0xC2B2AE3D27D4EB4Full) ^ (c * 0x165667B19E3779F9ull));
+    }
+  };
+  std::unordered_map<std::tuple<int, int, int>, uint32_t, TripleHash> remap;
+  remap.reserve(attrib.vertices.size() / 3);
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     const auto& ix = shape.mesh.indices;
     for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
