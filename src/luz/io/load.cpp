@@ -23,7 +23,8 @@ Scene load_scene(const std::string& path, const Defines& defines) {
   if (e == ".xml") return load_mitsuba(path, defines);
   if (!defines.empty()) throw InputError(path, 0, "-D applies to Mitsuba XML scenes only");
   if (e == ".obj") return load_obj_scene(path);
-  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj)");
+  if (e == ".pbrt") return load_pbrt(path);
+  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj, .pbrt)");
 }
 
 }  // namespace luz

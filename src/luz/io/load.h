@@ -12,9 +12,10 @@ namespace luz {
 
 using Defines = std::map<std::string, std::string>;
 
-// By extension: .xml (Mitsuba), .obj (OBJ/MTL).
+// By extension: .xml (Mitsuba), .obj (OBJ/MTL), .pbrt (pbrt-v4).
 Scene load_scene(const std::string& path, const Defines& defines = {});
 Scene load_mitsuba(const std::string& path, const Defines& defines = {});
 Scene load_obj_scene(const std::string& path);
+Scene load_pbrt(const std::string& path);
 
 }  // namespace luz
