@@ -15,6 +15,7 @@
 
 #include "luz/device/cpu/render.h"
 #include "luz/io/error.h"
+#include "luz/io/image.h"
 #include "luz/io/load.h"
 #include "luz/io/pbrt/parser.h"
 #include "luz/io/pbrt/tokenizer.h"
@@ -617,4 +618,43 @@ TEST(PbrtSharedScenes, CornellBoxMatchesMitsubaVersion) {
               worst, thr, mean_a / (3 * nb * nb), mean_b / (3 * nb * nb), 100 * (mean_a / mean_b - 1), z_mean);
   EXPECT_EQ(over, 0);
   EXPECT_LE(z_mean, luz_test::sidak_z(1e-3, 1));
+}
+
+// The pbrt-v4 Cornell box against Tungsten's reference render shipped with
+// it (1024², half float), as test_reference.cpp does for the Mitsuba file:
+// Luz at 64 × 64 with a box filter (each pixel the plain mean of 16 × 16
+// reference pixels), 8 × 8 blocks; per block and channel
+// |luz − ref| ≤ z · sqrt(σ²_luz + σ²_ref + rounding²), σ²_ref measured from
+// the reference's own noise (stat_helpers.h), z Šidák over the 192 blocks
+// at family level 1e-3. Conversions: pbrt's maxdepth 65 (Luz 66) against
+// Tungsten's max_bounces 64 (Luz 65): below 1e-9 of the image; no other
+// tolerance.
+TEST(PbrtSharedScenes, CornellBoxMatchesTungstenReference) {
+  constexpr int kRes = 64, kBlock = 8;
+  Image ref = read_exr(kScenes + "/cornell-box-bitterli/reference/TungstenRender.exr");
+  ASSERT_EQ(ref.width, 1024);
+  Scene s = load_scene(kScenes + "/cornell-box-bitterli/pbrt-v4/scene-v4.pbrt");
+  s.settings.sampler = SamplerType::Independent;
+  s.settings.filter = FilterKind::Box;
+  Film f = render_small(s, kRes, 512, 2024);
+  const int nb = kRes / kBlock;
+  luz_test::Blocks L = luz_test::make_blocks(f, kBlock);
+  const luz_test::ReferenceBlocks R = luz_test::reference_blocks(ref, nb, nb, kBlock * (ref.width / kRes));
+  const double thr = luz_test::sidak_z(1e-3, 3.0 * nb * nb);
+  double worst = 0, lm = 0, rm = 0;
+  int over = 0;
+  for (int by = 0; by < nb; ++by)
+    for (int bx = 0; bx < nb; ++bx)
+      for (int c = 0; c < 3; ++c) {
+        const size_t b = 3 * (size_t(by) * nb + bx) + c;
+        const double fl = luz_test::rounding_floor(R.mean[b]);
+        const double z = std::fabs(L.m(bx, by, c) - R.mean[b]) / std::sqrt(L.v(bx, by, c) + R.var[b] + fl * fl);
+        worst = std::max(worst, z);
+        over += z > thr;
+        lm += L.m(bx, by, c);
+        rm += R.mean[b];
+      }
+  std::printf("[pbrt] cornell box pbrt vs tungsten: worst block z %.2f (threshold %.2f), image mean %+.3f%%\n", worst,
+              thr, 100 * (lm / rm - 1));
+  EXPECT_EQ(over, 0);
 }
