@@ -12,11 +12,12 @@ namespace luz {
 
 using Defines = std::map<std::string, std::string>;
 
-// By extension: .xml (Mitsuba), .obj (OBJ/MTL), .ply.
+// By extension: .xml (Mitsuba), .obj (OBJ/MTL), .ply, .pbrt (pbrt-v4).
 Scene load_scene(const std::string& path, const Defines& defines = {});
 Scene load_mitsuba(const std::string& path, const Defines& defines = {});
 // A mesh file as a scene (mesh_scene.cpp).
 Scene load_obj_scene(const std::string& path);
 Scene load_ply_scene(const std::string& path);
+Scene load_pbrt(const std::string& path);
 
 }  // namespace luz
