@@ -23,6 +23,9 @@ enum class BsdfParam : uint8_t {
   AlphaU,
   AlphaV,
   Exponent,
+  BaseColor,  // glTF metallic-roughness (gltf_pbr.h)
+  Metallic,
+  Roughness,
 };
 
 // What is transported along the path: radiance (camera paths, the path
