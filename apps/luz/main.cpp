@@ -121,13 +121,13 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
 int main(int argc, char** argv) {
   CLI::App app{"Luz: a physically based path tracer"};
   app.require_subcommand(1);
-  CLI::App* rc = app.add_subcommand("render", "render a scene (Mitsuba 3 XML or OBJ) to an image");
+  CLI::App* rc = app.add_subcommand("render", "render a scene (Mitsuba 3 XML, OBJ or glTF 2.0) to an image");
   std::string scene, sampler, integrator, light_sampler, device = "cpu";
   std::vector<std::string> outs;
   int spp = 0, threads = 0, max_depth = 0;
   long long seed = -1;
   std::vector<std::string> defines;
-  rc->add_option("scene", scene, "scene file (.xml or .obj)")->required();
+  rc->add_option("scene", scene, "scene file (.xml, .obj, .gltf or .glb)")->required();
   rc->add_option("-o,--output", outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
       ->allow_extra_args(false);
   // Whole decimal integers in a range, each flag with its own message (CLI11's

@@ -30,6 +30,7 @@
 
 #include "luz/io/error.h"
 #include "luz/io/obj.h"
+#include "luz/io/gltf.h"
 #include "luz/io/scene_loader.h"
 #include "luz/io/image.h"
 #include "luz/math/transform.h"
@@ -40,9 +41,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Embree's limit on a ray's origin and direction components (FLT_LARGE, 1.844e18).
-constexpr float kMaxCoordinate = 1e18f;
-float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
 // The rows of the inverse of m's linear part, (b × c, c × a, a × b) / det for
 // its columns a, b, c (world -> local directions); false if it is degenerate.
 bool inverse_rows(const Matrix4& m, Vec3& x, Vec3& y, Vec3& z) {
@@ -1448,7 +1446,15 @@ Scene load_obj_scene(const std::string& path) {
     scene.add_mesh(mesh.positions, mesh.normals, idx, g < nmat ? mat_index[g] : fallback, emission);
   }
 
-  // Camera framing the bounds from +z, 40° field of view.
+  frame_bounds(scene, path);
+  scene.settings.spp = 64;
+  scene.settings.integrator.max_depth = -1;
+  scene.compile();
+  return scene;
+}
+
+void frame_bounds(Scene& scene, const std::string& path) {
+  // A 512² camera framing the bounds from +z, 40° field of view.
   scene.compile();
   Vec3 c = (scene.bounds_min + scene.bounds_max) * 0.5f;
   Vec3 ext = scene.bounds_max - scene.bounds_min;
@@ -1463,10 +1469,6 @@ Scene load_obj_scene(const std::string& path) {
   cam.x_axis = {-1, 0, 0};
   cam.y_axis = {0, 1, 0};
   cam.z_axis = {0, 0, -1};
-  scene.settings.spp = 64;
-  scene.settings.integrator.max_depth = -1;
-  scene.compile();
-  return scene;
 }
 
 Scene load_scene(const std::string& path, const Defines& defines) {
@@ -1478,7 +1480,11 @@ Scene load_scene(const std::string& path, const Defines& defines) {
     if (!defines.empty()) throw InputError(path, 0, "-D applies to Mitsuba XML scenes only");
     return load_obj_scene(path);
   }
-  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj)");
+  if (e == ".gltf" || e == ".glb") {
+    if (!defines.empty()) throw InputError(path, 0, "-D applies to Mitsuba XML scenes only");
+    return load_gltf(path);
+  }
+  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj, .gltf, .glb)");
 }
 
 }  // namespace luz
