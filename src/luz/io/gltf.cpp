@@ -82,11 +82,11 @@ class GltfLoader {
     walk(roots);
     // Area lights come first in Scene::lights (add_mesh numbers them), then the others.
     scene_.lights.insert(scene_.lights.end(), punctual_.begin(), punctual_.end());
-    if (!has_camera_) frame_bounds(scene_, path_);
     if (scene_.lights.empty()) warn("the scene has no light (no emissive material, no KHR_lights_punctual light)");
     scene_.settings.spp = 64;
     scene_.settings.integrator.max_depth = -1;
-    scene_.compile();
+    if (has_camera_) scene_.compile();
+    else frame_bounds(scene_, path_);  // compiles the scene
     return std::move(scene_);
   }
 
@@ -374,9 +374,77 @@ class GltfLoader {
         for (size_t i = 0; i + 2 < order.size(); ++i) tri(order[i + 1], order[i + 2], order[0]);
       }
       if (tris.empty()) continue;
-      scene_.add_mesh(positions, normals, tris, mat.index, mat.emissive ? &mat.emission : nullptr, uvs,
-                      mat.emission_texture);
+      if (mat.emission_texture < 0) {
+        scene_.add_mesh(positions, normals, tris, mat.index, mat.emissive ? &mat.emission : nullptr, uvs);
+        continue;
+      }
+      add_textured_emitter(positions, normals, uvs, tris, mat);
     }
+  }
+
+  // A primitive with an emission texture: the triangles whose texels are all
+  // black are not lights; each other one is a light whose radiance (what
+  // light selection weighs it by; the texture gives the emission itself) is
+  // the mean of its texels.
+  void add_textured_emitter(const std::vector<Vec3>& positions, const std::vector<Vec3>& normals,
+                            const std::vector<Vec2>& uvs, const std::vector<uint32_t>& tris, const MaterialInfo& mat) {
+    const Texture& tex = scene_.textures[size_t(mat.emission_texture)];
+    std::vector<uint32_t> lit, dark;
+    std::vector<Color> means;
+    for (size_t k = 0; k < tris.size(); k += 3) {
+      Color mean = mat.emission;
+      float max = 1.f;
+      footprint(tex, uvs[tris[k]], uvs[tris[k + 1]], uvs[tris[k + 2]], mean, max);
+      std::vector<uint32_t>& to = max > 0.f ? lit : dark;
+      to.insert(to.end(), {tris[k], tris[k + 1], tris[k + 2]});
+      if (max > 0.f) means.push_back(mean);
+    }
+    if (!dark.empty()) scene_.add_mesh(positions, normals, dark, mat.index, nullptr, uvs);
+    if (lit.empty()) return;
+    const size_t first = scene_.lights.size();
+    scene_.add_mesh(positions, normals, lit, mat.index, &mat.emission, uvs, mat.emission_texture);
+    for (size_t k = 0; k < means.size(); ++k) scene_.lights[first + k].triangle.radiance = means[k];
+  }
+
+  // The greatest luminance and the mean of the texels a lookup inside the uv
+  // triangle (a, b, c) can read: the texel box around the triangle grown by
+  // one texel (the bilinear filter's reach), wrapped as the texture wraps.
+  // Leaves mean and max as they are when the box exceeds 2^20 texels.
+  void footprint(const Texture& tex, Vec2 a, Vec2 b, Vec2 c, Color& mean, float& max) const {
+    const BitmapTexture& bm = tex.bitmap;
+    const Vec2 p[3] = {tex.to_uv.apply(a), tex.to_uv.apply(b), tex.to_uv.apply(c)};
+    double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
+    const double size[2] = {double(bm.width), double(bm.height)};
+    for (const Vec2& q : p)
+      for (int d = 0; d < 2; ++d) {
+        const double x = double(d ? q.y : q.x) * size[d] - 0.5;
+        lo[d] = std::min(lo[d], x), hi[d] = std::max(hi[d], x);
+      }
+    const double x0 = std::floor(lo[0]), x1 = std::floor(hi[0]) + 1, y0 = std::floor(lo[1]), y1 = std::floor(hi[1]) + 1;
+    if (!((x1 - x0 + 1) * (y1 - y0 + 1) <= double(1 << 20))) return;
+    auto wrap = [&](int64_t i, int64_t n) {
+      if (bm.wrap == WrapMode::Clamp) return std::clamp<int64_t>(i, 0, n - 1);
+      if (bm.wrap == WrapMode::Mirror) {
+        const int64_t m = ((i % (2 * n)) + 2 * n) % (2 * n);
+        return m < n ? m : 2 * n - 1 - m;
+      }
+      return ((i % n) + n) % n;
+    };
+    TextureView v;
+    v.texels8 = scene_.texels8.data();
+    v.texelsf = scene_.texelsf.data();
+    v.srgb_table = scene_.srgb_table.data();
+    double sum[3] = {0, 0, 0};
+    float m = 0.f;
+    for (int64_t y = int64_t(y0); y <= int64_t(y1); ++y)
+      for (int64_t x = int64_t(x0); x <= int64_t(x1); ++x) {
+        const Color t = tex.scale * v.texel(bm, uint32_t(wrap(y, bm.height) * bm.width + wrap(x, bm.width)));
+        m = std::max(m, std::max(t.x, std::max(t.y, t.z)));
+        for (int k = 0; k < 3; ++k) sum[k] += t[k];
+      }
+    const double n = (x1 - x0 + 1) * (y1 - y0 + 1);
+    mean = {float(sum[0] / n), float(sum[1] / n), float(sum[2] / n)};
+    max = m;
   }
 
   // ---- materials and textures ----

@@ -21,8 +21,8 @@ inline float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), 
 Scene load_scene(const std::string& path, const Defines& defines = {});
 Scene load_mitsuba(const std::string& path, const Defines& defines = {});
 Scene load_obj_scene(const std::string& path);
-// Sets a 512² camera that frames the scene's bounds from +z (loaders of
-// formats without a camera); path names the file in errors.
+// Compiles the scene and sets a 512² camera that frames its bounds from +z
+// (loaders of formats without a camera); path names the file in errors.
 void frame_bounds(Scene& scene, const std::string& path);
 
 }  // namespace luz
