@@ -303,24 +303,35 @@ TEST_F(GltfFiles, MaterialProperties) {
       views() +
       ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5,\"material\":0},"
       "{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5,\"material\":1},"
-      "{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5,\"material\":2}]}],"
+      "{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5,\"material\":2},"
+      "{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5,\"material\":3}]}],"
       "\"nodes\":[{\"mesh\":0}],\"materials\":["
       "{\"alphaMode\":\"MASK\",\"alphaCutoff\":0.6,\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,0.5]}},"
       "{\"alphaMode\":\"BLEND\",\"doubleSided\":true,\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,0.25],"
       "\"metallicFactor\":0.5,\"roughnessFactor\":0.25},\"extensions\":{\"KHR_materials_ior\":{\"ior\":2}}},"
-      "{\"emissiveFactor\":[1,0.5,0],\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":4}}}]";
+      "{\"emissiveFactor\":[1,0.5,0],\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":4}}},"
+      "{\"pbrMetallicRoughness\":{\"metallicFactor\":0},\"extensions\":{\"KHR_materials_transmission\":"
+      "{\"transmissionFactor\":0.75}}}]";
   Scene s = load_scene(gltf("materials.gltf", quad_bin(), json));
-  ASSERT_EQ(s.materials.size(), 3u);
+  ASSERT_EQ(s.materials.size(), 4u);
   EXPECT_EQ(s.materials[0].opacity, 0.f);
   EXPECT_EQ(s.materials[1].opacity, 0.25f);
   EXPECT_TRUE(s.materials[1].bsdf.two_sided);
   EXPECT_FALSE(s.materials[0].bsdf.two_sided);
   EXPECT_NEAR(s.materials[1].bsdf.gltf_pbr.f0, 1.f / 9.f, 1e-7f);
   EXPECT_EQ(s.materials[1].bsdf.gltf_pbr.roughness, 0.25f);
+  EXPECT_EQ(s.materials[3].bsdf.type, BsdfType::GltfPbrTransmission);
+  EXPECT_EQ(s.materials[3].bsdf.gltf_pbr_transmission.transmission, 0.75f);
+  EXPECT_EQ(s.materials[3].bsdf.gltf_pbr_transmission.surface.metallic, 0.f);
   ASSERT_EQ(s.lights.size(), 1u);  // the emissive strip's two triangles, merged into a parallelogram by compile()
   ASSERT_EQ(s.lights[0].type, LightType::Parallelogram);
   EXPECT_EQ(s.lights[0].parallelogram.radiance.x, 4.f);
   EXPECT_EQ(s.lights[0].parallelogram.radiance.y, 2.f);
+  // Renders finite with all four (alpha-tested, blended, emitting, transmitting).
+  resize(s, 16, 16);
+  s.settings.spp = 16;
+  add_environment(s, 1.f);
+  luz_test::render_finite(s);
 }
 
 // Texture channels and scales (the glTF factors): one bitmap read as RGB,

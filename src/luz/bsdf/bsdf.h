@@ -53,9 +53,10 @@ enum class BsdfType : uint32_t {
   BlinnPhong,
   Ward,
   RoughPlastic,
-  GltfPbr,  // the last: kBsdfTypeCount follows it
+  GltfPbr,
+  GltfPbrTransmission,  // the last: kBsdfTypeCount follows it
 };
-constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::GltfPbr) + 1;
+constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::GltfPbrTransmission) + 1;
 
 // One BSDF model: a tag and the model's parameters in a union (every model
 // is a small trivially copyable struct).
@@ -78,6 +79,7 @@ struct BsdfComponent {
     WardBsdf ward;
     RoughPlasticBsdf rough_plastic;
     GltfPbrBsdf gltf_pbr;
+    GltfPbrTransmissionBsdf gltf_pbr_transmission;
   };
 
   // The models' members have default initialisers, so the union needs a
@@ -102,6 +104,7 @@ LUZ_FORCE_INLINE decltype(auto) visit(C& c, F&& f) {
     case BsdfType::BlinnPhong: return f(c.blinn_phong);
     case BsdfType::Ward: return f(c.ward);
     case BsdfType::GltfPbr: return f(c.gltf_pbr);
+    case BsdfType::GltfPbrTransmission: return f(c.gltf_pbr_transmission);
     default: return f(c.rough_plastic);
   }
 }
@@ -408,6 +411,16 @@ struct Bsdf : BsdfComponent {
     b.type = BsdfType::GltfPbr;
     b.two_sided = two_sided;
     b.gltf_pbr = GltfPbrBsdf{base_color, metallic, roughness, GltfPbrBsdf::ior_to_f0(ior)};
+    return b;
+  }
+  // The same with KHR_materials_transmission's transmissionFactor (a thin
+  // sheet, two-sided by nature).
+  LUZ_INLINE static Bsdf make_gltf_pbr_transmission(Color base_color, float metallic, float roughness,
+                                                    float transmission, float ior = 1.5f) {
+    Bsdf b;
+    b.type = BsdfType::GltfPbrTransmission;
+    b.gltf_pbr_transmission.surface = make_gltf_pbr(base_color, metallic, roughness, ior).gltf_pbr;
+    b.gltf_pbr_transmission.transmission = transmission;
     return b;
   }
   // Mitsuba `blendbsdf`: (1 - weight) a + weight b. a and b must not be blends

@@ -26,6 +26,7 @@ enum class BsdfParam : uint8_t {
   BaseColor,  // glTF metallic-roughness (gltf_pbr.h)
   Metallic,
   Roughness,
+  Transmission,  // KHR_materials_transmission
 };
 
 // What is transported along the path: radiance (camera paths, the path

@@ -21,7 +21,8 @@
 //    warning when not 1 / present). occlusionTexture is ignored (the path
 //    tracer computes occlusion). doubleSided -> Bsdf::two_sided.
 //    KHR_materials_ior sets the dielectric f0; KHR_materials_transmission
-//    is not modelled (warning: rendered opaque).
+//    (factor, texture's R) makes it gltf_pbr.h's thin transmitting sheet
+//    (two-sided whatever doubleSided says; KHR_materials_volume ignored).
 //  - Emission: emissiveFactor × emissiveTexture × KHR_materials_emissive_strength
 //    is the radiance of the primitive's triangles as area lights (front side).
 //  - Alpha: OPAQUE ignores alpha; MASK makes the surface exist where
@@ -138,7 +139,7 @@ class GltfLoader {
   void check_extensions() {
     static const std::set<std::string> supported = {
         "KHR_texture_transform", "KHR_materials_emissive_strength", "KHR_lights_punctual", "KHR_materials_ior",
-        "KHR_mesh_quantization"};
+        "KHR_mesh_quantization", "KHR_materials_transmission"};
     for (const std::string& e : model_.extensionsRequired)
       if (!supported.count(e)) fail("", "requires extension " + e + ", which Luz does not support");
   }
@@ -591,26 +592,51 @@ class GltfLoader {
     const float roughness = unit(pbr.roughnessFactor, "roughnessFactor");
     const double ior = extension_number(m.extensions, "KHR_materials_ior", "ior", 1.5, where);
     if (!(ior >= 1.0)) fail(where, "KHR_materials_ior's ior must be >= 1");
-    if (m.extensions.count("KHR_materials_transmission"))
-      warn(where + ": KHR_materials_transmission is not supported; the material is rendered opaque");
-    Bsdf b = Bsdf::make_gltf_pbr(base, metallic, roughness, float(ior), m.doubleSided);
+    // KHR_materials_transmission: a thin sheet (KHR_materials_volume's
+    // thickness is not modelled).
+    const auto tx = m.extensions.find("KHR_materials_transmission");
+    const float transmission = unit(extension_number(m.extensions, "KHR_materials_transmission", "transmissionFactor", 0.0, where),
+                                    "transmissionFactor");
+    int transmission_index = -1, transmission_set = 0;
+    tinygltf::ExtensionMap transmission_ext;  // the textureInfo's own extensions (KHR_texture_transform)
+    if (tx != m.extensions.end() && tx->second.Has("transmissionTexture")) {
+      const tinygltf::Value& t = tx->second.Get("transmissionTexture");
+      if (!t.Has("index") || !t.Get("index").IsInt()) fail(where, "transmissionTexture needs an index");
+      transmission_index = t.Get("index").GetNumberAsInt();
+      if (t.Has("texCoord") && t.Get("texCoord").IsInt()) transmission_set = t.Get("texCoord").GetNumberAsInt();
+      if (t.Has("extensions") && t.Get("extensions").IsObject())
+        for (const std::string& k : t.Get("extensions").Keys()) transmission_ext[k] = t.Get("extensions").Get(k);
+    }
+    const bool transmissive = transmission > 0.f || transmission_index >= 0;
+    if (transmissive && m.extensions.count("KHR_materials_volume"))
+      warn(where + ": KHR_materials_volume is not supported; the transmission is a thin sheet");
+    Bsdf b = transmissive ? Bsdf::make_gltf_pbr_transmission(base, metallic, roughness, transmission, float(ior))
+                          : Bsdf::make_gltf_pbr(base, metallic, roughness, float(ior), m.doubleSided);
+    GltfPbrBsdf& surface = transmissive ? b.gltf_pbr_transmission.surface : b.gltf_pbr;
     std::vector<TextureBinding> bindings;
     if (pbr.baseColorTexture.index >= 0) {
       Color mean;
       const int32_t t = texture(pbr.baseColorTexture, TextureChannel::Rgb, true, base, where + ".baseColorTexture",
                                 info.uv_set, &mean);
       bindings.push_back({t, BsdfPart::Front, BsdfParam::BaseColor});
-      b.gltf_pbr.base_color = mean;
+      surface.base_color = mean;
+    }
+    if (transmission_index >= 0) {
+      Color mean;
+      const int32_t t = texture(transmission_index, transmission_set, transmission_ext, TextureChannel::R, false,
+                                Color{1.f, 1.f, 1.f} * transmission, where + ".transmissionTexture", info.uv_set, &mean);
+      bindings.push_back({t, BsdfPart::Front, BsdfParam::Transmission});
+      b.gltf_pbr_transmission.transmission = mean.x;
     }
     if (pbr.metallicRoughnessTexture.index >= 0) {
       Color mean;
       const std::string w = where + ".metallicRoughnessTexture";
       const int32_t tr = texture(pbr.metallicRoughnessTexture, TextureChannel::G, false,
                                  Color{1.f, 1.f, 1.f} * roughness, w, info.uv_set, &mean);
-      b.gltf_pbr.roughness = mean.x;
+      surface.roughness = mean.x;
       const int32_t tm = texture(pbr.metallicRoughnessTexture, TextureChannel::B, false,
                                  Color{1.f, 1.f, 1.f} * metallic, w, info.uv_set, &mean);
-      b.gltf_pbr.metallic = mean.x;
+      surface.metallic = mean.x;
       bindings.push_back({tr, BsdfPart::Front, BsdfParam::Roughness});
       bindings.push_back({tm, BsdfPart::Front, BsdfParam::Metallic});
     }
