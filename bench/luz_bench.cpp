@@ -22,7 +22,7 @@
 #include "luz/device/cpu/render.h"
 #include "luz/device/cuda/render_cuda.h"
 #include "luz/io/error.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 
 namespace {
 

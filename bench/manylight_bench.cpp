@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 #include "reference.h"
 
 using namespace luz;

@@ -9,7 +9,7 @@
 
 #include "luz/device/cpu/render.h"
 #include "luz/io/error.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 
 namespace luz_test {
 

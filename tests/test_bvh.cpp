@@ -49,7 +49,7 @@
 #include "luz/accel/bvh_build.h"
 #include "luz/accel/embree_tracer.h"
 #include "luz/film/filter.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 
 using namespace luz;
 

@@ -16,7 +16,7 @@
 #include "cli_helpers.h"
 #include "luz/camera/camera.h"
 #include "luz/device/cpu/render.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 #include "temp_dir.h"
 
 namespace {

@@ -392,8 +392,11 @@ TEST_F(Cli, DegenerateOrFarCameras) {
   expect_bad_scene(replace(kScene, lookat, lookat + "<scale value=\"1e30\"/><scale value=\"1e30\"/>"), "<sensor",
                    "degenerate orientation");
   // An OBJ rendered directly is framed by a camera outside its bounds.
-  write_file(dir / "huge.obj", "v 0 0 0\nv 1e38 0 0\nv 0 1 0\nf 1 2 3\n");
+  // Vertices within Embree's range whose framing camera would not be.
+  write_file(dir / "huge.obj", "v 0 0 0\nv 9e17 0 0\nv 0 1 0\nf 1 2 3\n");
   expect_bad({"render", "huge.obj", "-o", "out.exr", "--threads", "1"}, "huge.obj", 0, "too large to frame");
+  write_file(dir / "far.obj", "v 0 0 0\nv 1e38 0 0\nv 0 1 0\nf 1 2 3\n");
+  expect_bad({"render", "far.obj", "-o", "out.exr", "--threads", "1"}, "far.obj", 0, "vertex 1 is not finite or lies beyond 1e18");
 }
 
 // Nested bsdfs recurse in the loader: a deep nesting is an error, not a

@@ -56,7 +56,7 @@
 #include "luz/device/cuda/render_cuda.h"
 #include "luz/device/cuda/wavefront.h"
 #include "luz/io/image.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 #include "stat_helpers.h"
 
 using namespace luz;

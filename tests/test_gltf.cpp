@@ -84,6 +84,8 @@ TEST(Gltf, SampleModelsLoad) {
   EXPECT_FLOAT_EQ(box.materials[0].bsdf.gltf_pbr.base_color.x, 0.8f);
   EXPECT_EQ(box.materials[0].bsdf.gltf_pbr.metallic, 1.f);  // glTF's default
   EXPECT_TRUE(box.lights.empty());
+  ASSERT_EQ(box.warnings.size(), 1u);  // one line: no light
+  EXPECT_NE(box.warnings[0].find("Box.gltf: warning: the scene has no light"), std::string::npos) << box.warnings[0];
 
   Scene a = load_scene(kHelmet), b = load_scene(kHelmetGlb);
   EXPECT_EQ(a.num_triangles(), 46356u / 3);

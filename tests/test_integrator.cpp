@@ -22,7 +22,7 @@
 #include <vector>
 
 #include "luz/device/cpu/render.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 #include "stat_helpers.h"
 
 using namespace luz;

@@ -23,7 +23,7 @@
 
 #include "chi2.h"
 #include "luz/device/cpu/render.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 
 using namespace luz;
 

@@ -44,7 +44,7 @@
 #include "luz/device/cpu/render.h"
 #include "luz/io/error.h"
 #include "luz/io/image.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 #include "cli_helpers.h"
 #include "scene_helpers.h"
 #include "stat_helpers.h"

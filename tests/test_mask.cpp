@@ -26,7 +26,7 @@
 
 #include "luz/accel/bvh_build.h"
 #include "luz/accel/embree_tracer.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 #include "luz/math/hash.h"
 #include "scene_helpers.h"
 #include "stat_helpers.h"
@@ -207,7 +207,7 @@ TEST_F(Mask, BadMasksAreRefused) {
                  "a mask inside a blendbsdf is not supported");
   expect_refused(side_quad(R"(<bsdf type="mask">)" + mask("") + "</bsdf>"), "a mask inside a mask is not supported");
   expect_refused(R"(<shape type="rectangle">)" + mask("") + R"(<emitter type="area"/></shape>)",
-                 "a masked bsdf on an emitting shape is not supported");
+                 "a masked material on an emitting shape is not supported");
 }
 
 // Wrapping a twosided (one or two sides) or a blend is accepted; a

@@ -40,7 +40,7 @@
 
 #include "luz/device/cpu/render.h"
 #include "luz/io/image.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 #include "luz/scene/scene.h"
 #include "furnace.h"
 #include "stat_helpers.h"

@@ -13,7 +13,7 @@
 
 #include "temp_dir.h"
 #include "luz/io/error.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 
 namespace fs = std::filesystem;
 using luz::Vec3;

@@ -23,7 +23,7 @@
 #include <string>
 
 #include "luz/io/image.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 #include "scene_helpers.h"
 #include "temp_dir.h"
 

@@ -41,7 +41,7 @@
 
 #include "luz/device/cpu/render.h"
 #include "luz/io/image.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 #include "stat_helpers.h"
 
 using namespace luz;

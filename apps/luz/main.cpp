@@ -23,7 +23,7 @@
 #include "luz/device/cuda/render_cuda.h"
 #include "luz/io/error.h"
 #include "luz/io/image.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 
 namespace {
 
@@ -71,6 +71,7 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
   }
 
   luz::Scene scene = luz::load_scene(scene_path, defines);
+  for (const std::string& w : scene.warnings) std::fprintf(stderr, "%s\n", w.c_str());
   luz::RenderSettings& s = scene.settings;
   if (spp > 0) s.spp = uint32_t(spp);
   if (seed >= 0) s.seed = uint64_t(seed);

@@ -59,8 +59,8 @@
 #include <tuple>
 
 #include "luz/io/error.h"
-#include "luz/io/scene_loader.h"
 #include "luz/math/transform.h"
+#include "luz/scene/scene_builder.h"
 
 namespace luz {
 namespace {
@@ -72,9 +72,11 @@ constexpr double kLumensPerWatt = 683.0;
 
 std::string at(const char* what, size_t i) { return std::string(what) + "[" + std::to_string(i) + "]"; }
 
+float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
+
 class GltfLoader {
  public:
-  explicit GltfLoader(const std::string& path) : path_(path) {}
+  explicit GltfLoader(const std::string& path) : path_(path), builder_(path) {}
 
   Scene load() {
     read_model();
@@ -82,21 +84,20 @@ class GltfLoader {
     const std::vector<int> roots = root_nodes();
     walk(roots);
     // Area lights come first in Scene::lights (add_mesh numbers them), then the others.
-    scene_.lights.insert(scene_.lights.end(), punctual_.begin(), punctual_.end());
-    if (scene_.lights.empty()) warn("the scene has no light (no emissive material, no KHR_lights_punctual light)");
-    scene_.settings.spp = 64;
-    scene_.settings.integrator.max_depth = -1;
-    if (has_camera_) scene_.compile();
-    else frame_bounds(scene_, path_);  // compiles the scene
-    return std::move(scene_);
+    for (const Light& l : punctual_) builder_.add_light(at_, l);
+    if (builder_.scene().lights.empty()) warn("the scene has no light (no emissive material, no KHR_lights_punctual light)");
+    builder_.settings().spp = 64;
+    builder_.settings().integrator.max_depth = -1;
+    if (!builder_.has_camera()) builder_.frame_bounds(512, 512);
+    return builder_.finish();
   }
 
  private:
   const std::string path_;
+  const SourceLoc at_{path_, 0};  // glTF has no useful line numbers: messages name the object instead
   tinygltf::Model model_;
-  Scene scene_;
-  bool has_camera_ = false;
-  std::vector<Light> punctual_;  // KHR_lights_punctual, appended after the meshes' area lights
+  SceneBuilder builder_;
+  std::vector<Light> punctual_;  // KHR_lights_punctual, added after the meshes' area lights
   std::set<std::string> warned_;
   // Per glTF material: the Luz material, its emission, and its texture-coordinate set.
   struct MaterialInfo {
@@ -108,13 +109,12 @@ class GltfLoader {
   };
   std::map<int, MaterialInfo> materials_;
   std::map<int, int32_t> image_texture_;  // image -> its texels' first Luz texture
-  uint32_t default_material_ = UINT32_MAX;
 
   [[noreturn]] void fail(const std::string& where, const std::string& problem) const {
-    throw InputError(path_, 0, where.empty() ? problem : where + ": " + problem);
+    builder_.error(at_, where.empty() ? problem : where + ": " + problem);
   }
   void warn(const std::string& msg) {
-    if (warned_.insert(msg).second) std::fprintf(stderr, "%s: warning: %s\n", path_.c_str(), msg.c_str());
+    if (warned_.insert(msg).second) builder_.warn(at_, msg);
   }
 
   void read_model() {
@@ -210,7 +210,7 @@ class GltfLoader {
       const std::string where = at("nodes", size_t(i));
       const Matrix4 world = parent * local_transform(n, where);
       if (n.mesh >= 0) add_mesh(n.mesh, world);
-      if (n.camera >= 0 && !has_camera_) set_camera(n.camera, world, where);
+      if (n.camera >= 0 && !builder_.has_camera()) set_camera(n.camera, world, where);
       auto l = n.extensions.find("KHR_lights_punctual");
       if (l != n.extensions.end() && l->second.Has("light")) add_light(l->second.Get("light"), world, where);
       for (auto c = n.children.rbegin(); c != n.children.rend(); ++c) stack.push_back({*c, world});
@@ -312,34 +312,27 @@ class GltfLoader {
       const Data pos = attribute(p, "POSITION", 3, false, where);
       const size_t n = pos.count;
       if (n > size_t(UINT32_MAX / 2)) fail(where, "too many vertices");
-      std::vector<Vec3> positions(n), normals;
-      for (size_t i = 0; i < n; ++i) {
-        const Vec3 q = world.point({float(component(pos, i, 0)), float(component(pos, i, 1)), float(component(pos, i, 2))});
-        if (!is_finite(q) || max_abs(q) > kMaxCoordinate) fail(where, "a position is not finite or lies beyond 1e18");
-        positions[i] = q;
-      }
+      TriangleMesh mesh;  // positions, normals in world space (SceneBuilder checks them)
+      mesh.positions.resize(n);
+      for (size_t i = 0; i < n; ++i)
+        mesh.positions[i] = world.point({float(component(pos, i, 0)), float(component(pos, i, 1)), float(component(pos, i, 2))});
       if (p.attributes.count("NORMAL")) {
         const Data nd = attribute(p, "NORMAL", 3, false, where);
         if (nd.count != n) fail(where, "NORMAL and POSITION differ in count");
-        normals.resize(n);
-        for (size_t i = 0; i < n; ++i) {
-          Vec3 v = world.normal({float(component(nd, i, 0)), float(component(nd, i, 1)), float(component(nd, i, 2))});
-          normals[i] = is_finite(v) ? v : Vec3{};  // zero: flat shading there
-        }
+        mesh.normals.resize(n);
+        for (size_t i = 0; i < n; ++i)
+          mesh.normals[i] = world.normal({float(component(nd, i, 0)), float(component(nd, i, 1)), float(component(nd, i, 2))});
       }
       if (p.attributes.count("TANGENT")) warn(where + ": TANGENT is ignored (tangents follow dp/du)");
       const MaterialInfo& mat = material(p.material);
-      std::vector<Vec2> uvs;
+      std::vector<Vec2>& uvs = mesh.uvs;
       if (mat.uv_set >= 0) {
         const std::string name = "TEXCOORD_" + std::to_string(mat.uv_set);
         if (!p.attributes.count(name)) fail(where, "its material's textures need " + name);
         const Data t = attribute(p, name, 2, true, where);
         if (t.count != n) fail(where, name + " and POSITION differ in count");
         uvs.resize(n);
-        for (size_t i = 0; i < n; ++i) {
-          uvs[i] = {float(component(t, i, 0)), float(component(t, i, 1))};
-          if (!std::isfinite(uvs[i].x) || !std::isfinite(uvs[i].y)) fail(where, name + " has a non-finite value");
-        }
+        for (size_t i = 0; i < n; ++i) uvs[i] = {float(component(t, i, 0)), float(component(t, i, 1))};
       }
       std::vector<uint32_t> order;  // the vertex sequence the mode reads
       if (p.indices >= 0) {
@@ -359,7 +352,7 @@ class GltfLoader {
         order.resize(n);
         for (size_t i = 0; i < n; ++i) order[i] = uint32_t(i);
       }
-      std::vector<uint32_t> tris;
+      std::vector<uint32_t>& tris = mesh.indices;
       auto tri = [&](uint32_t a, uint32_t b, uint32_t c) {
         if (flip) std::swap(b, c);
         tris.insert(tris.end(), {a, b, c});
@@ -375,11 +368,13 @@ class GltfLoader {
         for (size_t i = 0; i + 2 < order.size(); ++i) tri(order[i + 1], order[i + 2], order[0]);
       }
       if (tris.empty()) continue;
-      if (mat.emission_texture < 0) {
-        scene_.add_mesh(positions, normals, tris, mat.index, mat.emissive ? &mat.emission : nullptr, uvs);
-        continue;
+      const SourceLoc at{path_ + ": " + where, 0};
+      if (mat.emission_texture >= 0) {
+        add_textured_emitter(at, std::move(mesh), mat);
+      } else {
+        const AreaEmission e{mat.emission, -1};
+        builder_.add_mesh(at, std::move(mesh), mat.index, mat.emissive ? &e : nullptr);
       }
-      add_textured_emitter(positions, normals, uvs, tris, mat);
     }
   }
 
@@ -387,24 +382,32 @@ class GltfLoader {
   // black are not lights; each other one is a light whose radiance (what
   // light selection weighs it by; the texture gives the emission itself) is
   // the mean of its texels.
-  void add_textured_emitter(const std::vector<Vec3>& positions, const std::vector<Vec3>& normals,
-                            const std::vector<Vec2>& uvs, const std::vector<uint32_t>& tris, const MaterialInfo& mat) {
-    const Texture& tex = scene_.textures[size_t(mat.emission_texture)];
-    std::vector<uint32_t> lit, dark;
-    std::vector<Color> means;
+  // (Each lit triangle is a mesh of its own three vertices, for its own radiance.)
+  void add_textured_emitter(const SourceLoc& at, TriangleMesh mesh, const MaterialInfo& mat) {
+    const Texture tex = builder_.scene().textures[size_t(mat.emission_texture)];
+    std::vector<uint32_t> dark;
+    const std::vector<uint32_t>& tris = mesh.indices;
     for (size_t k = 0; k < tris.size(); k += 3) {
-      Color mean = mat.emission;
+      AreaEmission e{mat.emission, mat.emission_texture};
       float max = 1.f;
-      footprint(tex, uvs[tris[k]], uvs[tris[k + 1]], uvs[tris[k + 2]], mean, max);
-      std::vector<uint32_t>& to = max > 0.f ? lit : dark;
-      to.insert(to.end(), {tris[k], tris[k + 1], tris[k + 2]});
-      if (max > 0.f) means.push_back(mean);
+      const uint32_t v[3] = {tris[k], tris[k + 1], tris[k + 2]};
+      footprint(tex, mesh.uvs[v[0]], mesh.uvs[v[1]], mesh.uvs[v[2]], e.radiance, max);
+      if (!(max > 0.f)) {
+        dark.insert(dark.end(), v, v + 3);
+        continue;
+      }
+      TriangleMesh one;
+      one.indices = {0, 1, 2};
+      for (uint32_t i : v) {
+        one.positions.push_back(mesh.positions[i]);
+        one.uvs.push_back(mesh.uvs[i]);
+        if (!mesh.normals.empty()) one.normals.push_back(mesh.normals[i]);
+      }
+      builder_.add_mesh(at, std::move(one), mat.index, &e);
     }
-    if (!dark.empty()) scene_.add_mesh(positions, normals, dark, mat.index, nullptr, uvs);
-    if (lit.empty()) return;
-    const size_t first = scene_.lights.size();
-    scene_.add_mesh(positions, normals, lit, mat.index, &mat.emission, uvs, mat.emission_texture);
-    for (size_t k = 0; k < means.size(); ++k) scene_.lights[first + k].triangle.radiance = means[k];
+    if (dark.empty()) return;
+    mesh.indices = std::move(dark);
+    builder_.add_mesh(at, std::move(mesh), mat.index);
   }
 
   // The greatest luminance and the mean of the texels a lookup inside the uv
@@ -431,10 +434,11 @@ class GltfLoader {
       }
       return ((i % n) + n) % n;
     };
+    const Scene& scene = builder_.scene();
     TextureView v;
-    v.texels8 = scene_.texels8.data();
-    v.texelsf = scene_.texelsf.data();
-    v.srgb_table = scene_.srgb_table.data();
+    v.texels8 = scene.texels8.data();
+    v.texelsf = scene.texelsf.data();
+    v.srgb_table = scene.srgb_table.data();
     double sum[3] = {0, 0, 0};
     float m = 0.f;
     for (int64_t y = int64_t(y0); y <= int64_t(y1); ++y)
@@ -496,7 +500,7 @@ class GltfLoader {
     if (uv_set >= 0 && uv_set != set) warn(where + ": textures of one material use two texture-coordinate sets; all read TEXCOORD_" + std::to_string(uv_set));
     else uv_set = set;
     const int32_t base = image(t.source);
-    Texture tex = scene_.textures[size_t(base)];
+    Texture tex = builder_.scene().textures[size_t(base)];
     tex.bitmap.srgb = srgb;
     tex.bitmap.channel = channel;
     tex.to_uv = to_uv;
@@ -512,8 +516,8 @@ class GltfLoader {
       tex.bitmap.wrap = wrap(s.wrapS);
       if (s.wrapT != s.wrapS) warn(at("samplers", size_t(t.sampler)) + ": wrapT differs from wrapS; both follow wrapS");
     }
-    const int32_t id = int32_t(scene_.add_texture(tex));
-    if (mean) *mean = texture_mean(tex);
+    const int32_t id = builder_.add_texture({path_ + ": " + where, 0}, tex);
+    if (mean) *mean = builder_.texture_stats(id).mean;
     return id;
   }
 
@@ -536,25 +540,9 @@ class GltfLoader {
     BitmapTexture b;
     b.width = uint32_t(im.width);
     b.height = uint32_t(im.height);
-    const int32_t id = int32_t(scene_.add_bitmap(b, UvTransform{}, rgba));
+    const int32_t id = builder_.add_image8({path_ + ": " + where, 0}, b, UvTransform{}, rgba);
     image_texture_[index] = id;
     return id;
-  }
-
-  // Mean of a bitmap texture's values over its texels (scale included).
-  Color texture_mean(const Texture& tex) {
-    TextureView v;
-    v.list = scene_.textures.data();
-    v.texels8 = scene_.texels8.data();
-    v.texelsf = scene_.texelsf.data();
-    v.srgb_table = scene_.srgb_table.data();
-    double sum[3] = {0, 0, 0};
-    const uint32_t n = tex.bitmap.width * tex.bitmap.height;
-    for (uint32_t k = 0; k < n; ++k) {
-      const Color c = v.texel(tex.bitmap, k);
-      for (int j = 0; j < 3; ++j) sum[j] += c[j];
-    }
-    return tex.scale * Color{float(sum[0] / n), float(sum[1] / n), float(sum[2] / n)};
   }
 
   double extension_number(const tinygltf::ExtensionMap& ext, const char* name, const char* key, double fallback,
@@ -572,7 +560,9 @@ class GltfLoader {
     if (it != materials_.end()) return it->second;
     MaterialInfo info;
     if (index < 0) {  // glTF's default material: white, metallic 1, roughness 1
-      info.index = scene_.add_material(Bsdf::make_gltf_pbr({1.f, 1.f, 1.f}, 1.f, 1.f));
+      MaterialDesc d;
+      d.bsdf = Bsdf::make_gltf_pbr({1.f, 1.f, 1.f}, 1.f, 1.f);
+      info.index = builder_.add_material(at_, d);
       return materials_[index] = info;
     }
     if (size_t(index) >= model_.materials.size()) fail("meshes", "no material " + std::to_string(index));
@@ -678,10 +668,18 @@ class GltfLoader {
         if (is_black(info.emission)) info.emissive = false, info.emission_texture = -1;  // all texels black
       }
     }
-    info.index = scene_.add_material(b, bindings, opacity, opacity_texture);
-    Material& lm = scene_.materials[info.index];
-    lm.alpha_cutoff = cutoff;
-    lm.normal_map = normal_map;
+    MaterialDesc d;
+    d.bsdf = b;
+    d.bindings = bindings;
+    d.opacity = opacity;
+    d.opacity_texture = opacity_texture;
+    d.alpha_cutoff = cutoff;
+    d.normal_map = normal_map;
+    if (info.emissive && d.masked()) {
+      warn(where + ": an emissive material with alphaMode MASK or BLEND is rendered without its emission");
+      info.emissive = false, info.emission_texture = -1;
+    }
+    info.index = builder_.add_material({path_ + ": " + where, 0}, d);
     return materials_[index] = info;
   }
 
@@ -690,7 +688,7 @@ class GltfLoader {
     if (size_t(index) >= model_.cameras.size()) fail(where, "no camera " + std::to_string(index));
     const tinygltf::Camera& c = model_.cameras[size_t(index)];
     const std::string cw = at("cameras", size_t(index));
-    Camera& cam = scene_.camera;
+    Camera cam;
     cam.height = 512;
     cam.origin = world.point({0, 0, 0});
     // glTF's camera looks along -z with +y up and +x right; Luz's x_axis
@@ -720,7 +718,7 @@ class GltfLoader {
     } else {
       fail(cw, "camera type must be perspective or orthographic");
     }
-    has_camera_ = true;
+    builder_.set_camera({path_ + ": " + where, 0}, cam);
   }
 
   void add_light(const tinygltf::Value& ref, const Matrix4& world, const std::string& where) {

@@ -29,11 +29,11 @@
 #include <stdexcept>
 
 #include "luz/io/error.h"
-#include "luz/io/obj.h"
-#include "luz/io/gltf.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/mesh_obj.h"
+#include "luz/io/load.h"
 #include "luz/io/image.h"
 #include "luz/math/transform.h"
+#include "luz/scene/scene_builder.h"
 
 namespace luz {
 
@@ -41,6 +41,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// Embree's limit on a ray's origin and direction components (FLT_LARGE, 1.844e18).
+float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
 // The rows of the inverse of m's linear part, (b × c, c × a, a × b) / det for
 // its columns a, b, c (world -> local directions); false if it is degenerate.
 bool inverse_rows(const Matrix4& m, Vec3& x, Vec3& y, Vec3& z) {
@@ -136,9 +138,7 @@ class MitsubaParser {
       else error(n, "unsupported element <" + tag + ">");
     }
     if (!have_sensor) throw InputError(path_, 0, "the scene has no <sensor>");
-    if (scene_.num_triangles() == 0 && scene_.spheres.empty()) throw InputError(path_, 0, "the scene has no shapes");
-    scene_.compile();
-    return std::move(scene_);
+    return builder_.finish();
   }
 
  private:
@@ -149,6 +149,7 @@ class MitsubaParser {
   }
   int line(pugi::xml_node n) const { return line_at(size_t(n.offset_debug())); }
   [[noreturn]] void error(pugi::xml_node n, const std::string& msg) const { throw InputError(path_, line(n), msg); }
+  SourceLoc loc(pugi::xml_node n) const { return {path_, line(n)}; }
 
   // Mitsuba 3's upgrade of a 0.5/0.6 name: an underscore between a lower-case
   // letter or digit and the capital after it, then all lower case (toWorld ->
@@ -408,7 +409,7 @@ class MitsubaParser {
   // ---- plugins ----
   void parse_integrator(pugi::xml_node n) {
     std::string type = attr(n, "type");
-    IntegratorParams& ip = scene_.settings.integrator;
+    IntegratorParams& ip = builder_.settings().integrator;
     if (type == "path") ip.type = IntegratorType::Path;
     else if (type == "bsdf") ip.type = IntegratorType::Bsdf;
     else if (type == "light") ip.type = IntegratorType::Light;
@@ -429,7 +430,7 @@ class MitsubaParser {
 
   void parse_sensor(pugi::xml_node n) {
     std::string type = attr(n, "type");
-    Camera& cam = scene_.camera;
+    Camera cam;
     if (type == "perspective") cam.type = CameraType::Perspective;
     else if (type == "thinlens") cam.type = CameraType::ThinLens;
     else if (type == "orthographic") cam.type = CameraType::Orthographic;
@@ -468,9 +469,9 @@ class MitsubaParser {
     int width = 768, height = 576;
     // Mitsuba's defaults when the sensor names no sampler or film: an
     // independent sampler with 4 samples, a 768×576 hdrfilm, a gaussian rfilter.
-    scene_.settings.sampler = SamplerType::Independent;
-    scene_.settings.spp = 4;
-    scene_.settings.filter = FilterKind::Gaussian;
+    builder_.settings().sampler = SamplerType::Independent;
+    builder_.settings().spp = 4;
+    builder_.settings().filter = FilterKind::Gaussian;
     if (std::distance(n.children("sampler").begin(), n.children("sampler").end()) > 1)
       error(n, "a sensor takes one <sampler>");
     if (std::distance(n.children("film").begin(), n.children("film").end()) > 1) error(n, "a sensor takes one <film>");
@@ -503,20 +504,12 @@ class MitsubaParser {
       cam.y_axis = to_world.vector({0, 1, 0});
       cam.origin = to_world.point({0, 0, float(near_clip)});
     }
-    // Embree refuses (asserts on) rays whose origin or direction is not finite
-    // or exceeds 1.8e18 in magnitude.
-    if (!is_finite(cam.x_axis) || !is_finite(cam.y_axis) || !is_finite(cam.z_axis))
-      error(n, "the sensor's to_world gives the camera a degenerate orientation");
-    if (!is_finite(cam.origin) || max_abs(cam.origin) > kMaxCoordinate)
-      error(n, "the camera lies too far from the origin (a coordinate beyond 1e18)");
-    // The film's corners, where orthographic rays start, must stay in range too.
-    if (!projective && max_abs(cam.x_axis) + max_abs(cam.y_axis) * float(ty) + max_abs(cam.origin) > kMaxCoordinate)
-      error(n, "the orthographic view reaches beyond 1e18");
+    builder_.set_camera(loc(n), cam);  // the checks every format shares
   }
 
   void parse_sampler(pugi::xml_node n) {
     std::string type = attr(n, "type");
-    RenderSettings& s = scene_.settings;
+    RenderSettings& s = builder_.settings();
     if (type == "independent") s.sampler = SamplerType::Independent;
     else if (type == "stratified") s.sampler = SamplerType::Stratified;
     else if (type == "sobol" || type == "ldsampler") s.sampler = SamplerType::Sobol;
@@ -560,10 +553,10 @@ class MitsubaParser {
       std::string ft = attr(r, "type");
       check_children(r, {});
       Props rp(this, r);
-      if (ft == "box") scene_.settings.filter = FilterKind::Box;
-      else if (ft == "tent") scene_.settings.filter = FilterKind::Tent;
+      if (ft == "box") builder_.settings().filter = FilterKind::Box;
+      else if (ft == "tent") builder_.settings().filter = FilterKind::Tent;
       else if (ft == "gaussian") {
-        scene_.settings.filter = FilterKind::Gaussian;
+        builder_.settings().filter = FilterKind::Gaussian;
         double sd = rp.get_float("stddev", 0.5);
         if (sd != 0.5) error(r, "only the default gaussian stddev 0.5 is supported");
       } else {
@@ -650,32 +643,16 @@ class MitsubaParser {
       error(n, "unknown conductor material '" + m + "' (supported: " + names + ")");
     }
   }
-  // A bsdf as parsed: the BSDF with its constant parameters and the textures
-  // that drive the others (a textured parameter holds the texture's mean).
-  struct ParsedBsdf {
-    Bsdf bsdf;
-    std::vector<TextureBinding> bindings;
-    float opacity = 1.f;          // a mask's (Material::opacity)
-    int32_t opacity_texture = -1;
-    bool masked() const { return opacity_texture >= 0 || opacity < 1.f; }
-    int32_t normal_map = -1, bump_map = -1;  // Material's
-    float bump_scale = 1.f;
-    bool has_map() const { return normal_map >= 0 || bump_map >= 0; }
-  };
-  uint32_t add_material(const ParsedBsdf& b) {
-    const uint32_t m = scene_.add_material(b.bsdf, b.bindings, b.opacity, b.opacity_texture);
-    Material& mat = scene_.materials[m];
-    mat.normal_map = b.normal_map, mat.bump_map = b.bump_map, mat.bump_scale = b.bump_scale;
-    return m;
-  }
+  // A bsdf as parsed (MaterialDesc): the BSDF with its constant parameters
+  // and the textures that drive the others (a textured parameter holds the
+  // texture's mean).
+  using ParsedBsdf = MaterialDesc;
+  uint32_t add_material(pugi::xml_node n, const ParsedBsdf& b) { return builder_.add_material(loc(n), b); }
 
   // One bsdf element (or a <ref> to one) nested in another.
   ParsedBsdf nested_bsdf(pugi::xml_node c) {
     if (std::string(c.name()) != "ref") return parse_bsdf_value(c);
-    const Material& m = scene_.materials[resolve_ref(c)];
-    const auto first = scene_.texture_bindings.begin() + std::ptrdiff_t(m.first_binding);
-    return {m.bsdf, std::vector<TextureBinding>(first, first + std::ptrdiff_t(m.num_bindings)), m.opacity,
-            m.opacity_texture, m.normal_map, m.bump_map, m.bump_scale};
+    return builder_.material(resolve_ref(c));
   }
   // The bsdfs nested in n (<ref>s to textures are parameters, not bsdfs).
   std::vector<pugi::xml_node> nested_bsdf_nodes(pugi::xml_node n) {
@@ -727,7 +704,7 @@ class MitsubaParser {
       const float scale = bump ? float(p.get_float("scale", 1.0)) : 1.f;
       p.check_all_used();
       if (!std::isfinite(scale)) error(n, "bumpmap 'scale' must be finite");
-      const Texture& tex = scene_.textures[size_t(t)];
+      const Texture& tex = builder_.scene().textures[size_t(t)];
       if (!bump && tex.type == TextureType::Bitmap && !tex.bitmap.is_float && tex.bitmap.srgb)
         error(n, "the normalmap bitmap must be raw (<boolean name=\"raw\" value=\"true\"/>): its texels are "
                  "vectors, not sRGB colours");
@@ -927,22 +904,17 @@ class MitsubaParser {
     std::string id = n.attribute("id").value();
     if (!id.empty()) {
       if (bsdfs_.count(id)) error(n, "duplicate id '" + id + "'");
-      bsdfs_[id] = add_material(b);
+      bsdfs_[id] = add_material(n, b);
     }
     return b;
   }
   uint32_t parse_bsdf(pugi::xml_node n) {
     ParsedBsdf b = parse_bsdf_value(n);
     std::string id = n.attribute("id").value();
-    return id.empty() ? add_material(b) : bsdfs_[id];
+    return id.empty() ? add_material(n, b) : bsdfs_[id];
   }
 
   // ---- textures ----
-  // What the checks of a textured parameter need: its texels' mean, least
-  // and greatest values per channel (one entry per scene_.textures entry).
-  struct TextureInfo {
-    Color mean, min, max;
-  };
   // A file named relative to the scene file; it must be a regular file.
   fs::path scene_file(pugi::xml_node n, const std::string& file, const char* what) const {
     const fs::path full = fs::path(path_).parent_path() / file;
@@ -974,7 +946,7 @@ class MitsubaParser {
   // A <texture>: `bitmap` (filename relative to the scene file; filter_type,
   // wrap_mode, raw (Mitsuba 3) or gamma (Mitsuba 0.5), to_uv) or
   // `checkerboard` (color0, color1, to_uv). Returns its index in
-  // scene_.textures; with load = false the texture is only checked (the file
+  // the scene's textures; with load = false the texture is only checked (the file
   // must exist) and -1 returned.
   int32_t parse_texture(pugi::xml_node t, bool load) {
     std::string type = attr(t, "type");
@@ -983,7 +955,6 @@ class MitsubaParser {
     check_children(t, {});
     Props p(this, t);
     const UvTransform to_uv = uv_transform(t, p);
-    TextureInfo info;
     if (type == "checkerboard") {
       CheckerboardTexture c;
       for (const char* name : {"color0", "color1"}) {
@@ -998,11 +969,7 @@ class MitsubaParser {
         if (!is_finite(v) || !(v.x >= 0.f && v.y >= 0.f && v.z >= 0.f))
           error(t, "checkerboard colours must be finite and not negative");
       if (!load) return -1;
-      Texture tex(c);
-      tex.to_uv = to_uv;
-      info = {(c.color0 + c.color1) * 0.5f, vmin(c.color0, c.color1), vmax(c.color0, c.color1)};
-      texture_info_.push_back(info);
-      return int32_t(scene_.add_texture(tex));
+      return builder_.add_checkerboard(loc(t), c.color0, c.color1, to_uv);
     }
     std::string file = p.get_string("filename", "");
     if (file.empty()) error(t, "bitmap texture needs a 'filename'");
@@ -1026,47 +993,7 @@ class MitsubaParser {
     p.check_all_used();
     const fs::path full = scene_file(t, file, "bitmap");
     if (!load) return -1;
-    double sum[3] = {0, 0, 0};
-    info.min = {INFINITY, INFINITY, INFINITY};
-    info.max = {0.f, 0.f, 0.f};
-    auto account = [&](Color c) {
-      for (int k = 0; k < 3; ++k) sum[k] += c[k];
-      info.min = vmin(info.min, c);
-      info.max = vmax(info.max, c);
-    };
-    int32_t index = -1;
-    size_t texels = 0;
-    try {
-      const std::string ext = lower_extension(full);
-      if (ext == ".exr" || ext == ".hdr" || ext == ".pfm") {
-        // Float texels, linear: `raw` changes nothing.
-        Image img = read_image_linear(full.string());
-        texels = size_t(img.width) * size_t(img.height);
-        for (size_t k = 0; k < texels; ++k) {
-          const Color c{img.rgb[3 * k], img.rgb[3 * k + 1], img.rgb[3 * k + 2]};
-          if (!is_finite(c) || c.x < 0.f || c.y < 0.f || c.z < 0.f)
-            error(t, "bitmap '" + file + "': texel (" + std::to_string(k % size_t(img.width)) + ", " +
-                         std::to_string(k / size_t(img.width)) + ") is negative or not finite");
-          account(c);
-        }
-        bm.width = uint32_t(img.width), bm.height = uint32_t(img.height);
-        index = int32_t(scene_.add_bitmap(bm, to_uv, img.rgb));
-      } else {
-        Image8 img = read_image8(full.string());
-        bm.width = uint32_t(img.width), bm.height = uint32_t(img.height);
-        index = int32_t(scene_.add_bitmap(bm, to_uv, img.rgba));
-        texels = img.rgba.size();
-        const float* table = scene_.srgb_table.data();
-        for (uint32_t texel : img.rgba) account(texel_color(texel, bm.srgb, table));
-      }
-    } catch (const InputError& e) {
-      error(t, e.what());
-    } catch (const std::length_error& e) {
-      error(t, e.what());
-    }
-    for (int k = 0; k < 3; ++k) info.mean[k] = float(sum[k] / double(texels));
-    texture_info_.push_back(info);
-    return index;
+    return builder_.add_image_texture(loc(t), {full.string(), bm.srgb, bm.filter, bm.wrap, to_uv});
   }
   static std::string lower_extension(const fs::path& f) {
     std::string e = f.extension().string();
@@ -1101,7 +1028,7 @@ class MitsubaParser {
       if (is_reflectance) return checked_reflectance(n, p, name, def);
       return p.get_color(name, def);
     }
-    const TextureInfo& info = texture_info_[size_t(t)];
+    const TextureStats& info = builder_.texture_stats(t);
     if (is_reflectance && max_component(info.max) > 1.f)
       error(n, std::string("'") + name + "' texture has texels above 1 (a reflectance lies in [0, 1])");
     tb.push_back({t, BsdfPart::Front, param});
@@ -1115,7 +1042,7 @@ class MitsubaParser {
     const int32_t t = texture_param(p, name);
     if (t < 0) return float(p.get_float(name, def));
     for (BsdfParam q : params) tb.push_back({t, BsdfPart::Front, q});
-    return luminance(texture_info_[size_t(t)].mean);
+    return luminance(builder_.texture_stats(t).mean);
   }
   // A float in [0, 1] (a mask's opacity, a blend's weight): a number, or a
   // texture (`texture` set; its mean luminance returned) whose texels do not
@@ -1124,9 +1051,9 @@ class MitsubaParser {
     texture = texture_param(p, name);
     const std::string what = std::string(plugin) + " '" + name + "'";
     if (texture >= 0) {
-      if (max_component(texture_info_[size_t(texture)].max) > 1.f)
+      if (max_component(builder_.texture_stats(texture).max) > 1.f)
         error(n, what + " texture has texels above 1 (it lies in [0, 1])");
-      return luminance(texture_info_[size_t(texture)].mean);
+      return luminance(builder_.texture_stats(texture).mean);
     }
     const float v = float(p.get_float(name, def));
     if (!(v >= 0.f && v <= 1.f)) error(n, what + " must lie in [0, 1]");
@@ -1135,7 +1062,7 @@ class MitsubaParser {
   // A colour parameter's greatest value: its texture's maximum when bound, else v.
   Color texture_max(const std::vector<TextureBinding>& tb, BsdfParam param, Color v) const {
     for (const TextureBinding& t : tb)
-      if (t.part == BsdfPart::Front && t.param == param) return texture_info_[size_t(t.texture)].max;
+      if (t.part == BsdfPart::Front && t.param == param) return builder_.texture_stats(t.texture).max;
     return v;
   }
 
@@ -1172,18 +1099,16 @@ class MitsubaParser {
     if (type == "constant") {
       Color L = non_negative(p.get_color("radiance", {1, 1, 1}), "radiance");
       p.check_all_used();
-      for (const Light& l : scene_.lights)
-        if (is_environment(l)) error(n, "only one environment emitter is supported");
       ConstantLight c;
       c.radiance = L;
-      scene_.lights.push_back(c);
+      builder_.add_light(loc(n), c);
     } else if (type == "point") {
       PointLight l;
       l.intensity = non_negative(p.get_color("intensity", {1, 1, 1}), "intensity");
       Matrix4 to_world = placement("position");
       l.position = finite_place(p.has("position") ? p.get_point("position", {}) : to_world.point({0, 0, 0}), "position");
       p.check_all_used();
-      scene_.lights.push_back(l);
+      builder_.add_light(loc(n), l);
     } else if (type == "spot") {
       SpotLight l;
       l.intensity = non_negative(p.get_color("intensity", {1, 1, 1}), "intensity");
@@ -1202,7 +1127,7 @@ class MitsubaParser {
       l.cos_beam = float(std::cos(beam * M_PI / 180.0));
       l.inv_transition = beam < cutoff ? float(1.0 / ((cutoff - beam) * M_PI / 180.0)) : 0.f;
       l.tan_cutoff = float(std::tan(cutoff * M_PI / 180.0));
-      scene_.lights.push_back(l);
+      builder_.add_light(loc(n), l);
     } else if (type == "directional") {
       DirectionalLight l;
       l.irradiance = non_negative(p.get_color("irradiance", {1, 1, 1}), "irradiance");
@@ -1212,7 +1137,7 @@ class MitsubaParser {
       const float len = length(d);
       if (!(len > 0.f) || !std::isfinite(len)) error(n, "the directional light's direction is zero or not finite");
       l.direction = d / len;
-      scene_.lights.push_back(l);
+      builder_.add_light(loc(n), l);
     } else if (type == "envmap") {
       parse_envmap(n, p);
     } else {
@@ -1229,8 +1154,6 @@ class MitsubaParser {
     Matrix4 to_world = p.get_transform("to_world");
     p.check_all_used();
     if (!(scale >= 0.0) || !std::isfinite(scale)) error(n, "scale must be finite and not negative");
-    for (const Light& l : scene_.lights)
-      if (is_environment(l)) error(n, "only one environment emitter is supported");
     const fs::path full = scene_file(n, file, "envmap");
     Image img;
     try {
@@ -1238,15 +1161,6 @@ class MitsubaParser {
     } catch (const InputError& e) {
       error(n, e.what());
     }
-    if (img.width < 2 || img.height < 3) error(n, "envmap '" + file + "' must be at least 2x3 pixels");
-    if (size_t(img.width) * size_t(img.height) > (size_t(1) << 28))
-      error(n, "envmap '" + file + "' has more than 2^28 pixels");
-    for (size_t k = 0; k < img.rgb.size(); ++k)
-      if (!(img.rgb[k] >= 0.f) || !std::isfinite(img.rgb[k])) {
-        const size_t px = k / 3;
-        error(n, "envmap '" + file + "': pixel (" + std::to_string(px % size_t(img.width)) + ", " +
-                     std::to_string(px / size_t(img.width)) + ") is " + (std::isfinite(img.rgb[k]) ? "negative" : "not finite"));
-      }
     EnvmapLight l;
     l.scale = float(scale);
     l.to_world_x = to_world.vector({1, 0, 0});
@@ -1254,8 +1168,7 @@ class MitsubaParser {
     l.to_world_z = to_world.vector({0, 0, 1});
     if (!inverse_rows(to_world, l.to_local_x, l.to_local_y, l.to_local_z))
       error(n, "the envmap's to_world is degenerate");
-    build_envmap(l, img.rgb, uint32_t(img.width), uint32_t(img.height), scene_.light_data);
-    scene_.lights.push_back(l);
+    builder_.add_envmap(loc(n), l, img, file);
   }
 
   void parse_shape(pugi::xml_node n) {
@@ -1276,35 +1189,29 @@ class MitsubaParser {
       if (material >= 0) error(c, "a shape takes one bsdf");
       material = int(tag == "ref" ? resolve_ref(c) : parse_bsdf(c));
     }
-    if (material < 0) material = int(scene_.add_material(Bsdf::make_diffuse({0.5f, 0.5f, 0.5f})));
+    if (material < 0) material = int(builder_.default_material());
 
     // An area emitter: a constant radiance or a texture (its mean kept as
     // the radiance that power and light selection use).
-    const Color* emission = nullptr;
-    Color radiance;
-    int32_t emission_texture = -1;
+    AreaEmission area;
+    const AreaEmission* emission = nullptr;
     for (pugi::xml_node c : n.children("emitter")) {
       if (emission) error(c, "a shape takes one emitter");
       std::string et = attr(c, "type");
       if (et != "area") error(c, "unknown shape emitter '" + et + "' (supported: area)");
       check_children(c, {});
       Props ep(this, c);
-      emission_texture = texture_param(ep, "radiance");
-      radiance = emission_texture >= 0 ? texture_info_[size_t(emission_texture)].mean : ep.get_color("radiance", {1, 1, 1});
+      area.texture = texture_param(ep, "radiance");
+      area.radiance = area.texture >= 0 ? builder_.texture_stats(area.texture).mean : ep.get_color("radiance", {1, 1, 1});
       ep.check_all_used();
-      for (int k = 0; k < 3; ++k)
-        if (!(radiance[k] >= 0.f) || !std::isfinite(radiance[k])) error(c, "radiance must be finite and not negative");
-      emission = &radiance;
+      emission = &area;
     }
-    // Light sampling would pick points on the cut-away parts too.
-    if (emission && scene_.materials[size_t(material)].masked())
-      error(n, "a masked bsdf on an emitting shape is not supported");
 
     // Textures, masks, normal and bump maps need texture coordinates: rectangles
     // and OBJ meshes with vt have them. Only a textured shape keeps them (see read_obj).
-    const Material& mat = scene_.materials[size_t(material)];
+    const Material& mat = builder_.scene().materials[size_t(material)];
     const bool textured_bsdf = mat.num_bindings > 0 || mat.opacity_texture >= 0 || mat.normal_map >= 0 || mat.bump_map >= 0;
-    const bool textured = textured_bsdf || emission_texture >= 0;
+    const bool textured = textured_bsdf || area.texture >= 0;
     auto refuse_texture = [&](const char* why) {
       if (textured) error(n, std::string(textured_bsdf ? "a textured bsdf on " : "a textured emitter on ") + why);
     };
@@ -1322,7 +1229,7 @@ class MitsubaParser {
             sz = length(to_world.vector({0, 0, 1}));
       if (std::fabs(sx - sy) > 1e-4f * sx || std::fabs(sx - sz) > 1e-4f * sx)
         error(n, "a sphere's to_world must scale uniformly");
-      scene_.add_sphere(c, float(radius) * sx, uint32_t(material), emission, flip);
+      builder_.add_sphere(loc(n), c, float(radius) * sx, uint32_t(material), emission, flip);
       return;
     }
     if (type == "rectangle") {
@@ -1386,7 +1293,7 @@ class MitsubaParser {
     if (flip)
       for (Vec3& v : nrm) v = -v;
     if (analytic) nrm.clear();  // flat faces: the geometric normal is exact
-    scene_.add_mesh(pos, nrm, idx, uint32_t(material), emission, uv, emission_texture);
+    builder_.add_mesh(loc(n), {std::move(pos), std::move(nrm), std::move(uv), std::move(idx)}, uint32_t(material), emission);
   }
 
   std::string path_;
@@ -1396,95 +1303,14 @@ class MitsubaParser {
   pugi::xml_document doc_;
   std::map<std::string, uint32_t> bsdfs_;
   std::map<std::string, uint32_t> textures_;  // top-level <texture id>, by id
-  std::vector<TextureInfo> texture_info_;     // one per scene_.textures entry
-  Scene scene_;
+  SceneBuilder builder_{path_};
   bool legacy_names_ = false;  // a Mitsuba 0.5/0.6 scene: camelCase parameter names
   int bsdf_depth_ = 0;
   static constexpr int kMaxBsdfNesting = 32;
 };
 
-std::string lower_extension(const std::string& path) {
-  std::string e = fs::path(path).extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return e;
-}
-
 }  // namespace
 
 Scene load_mitsuba(const std::string& path, const Defines& defines) { return MitsubaParser(path, defines).parse(); }
-
-Scene load_obj_scene(const std::string& path) {
-  ObjMesh mesh = read_obj(path, true);
-  Scene scene;
-  // One Luz material per MTL material (Kd/Ks/Ns: modified Phong, two-sided).
-  std::vector<uint32_t> mat_index;
-  std::vector<int> emissive;
-  for (const ObjMaterial& m : mesh.materials) {
-    for (int k = 0; k < 3; ++k) {
-      if (m.kd[k] < 0 || m.ks[k] < 0 || m.kd[k] + m.ks[k] > 1.f)
-        throw InputError(path, 0, "material '" + m.name + "': Kd + Ks must lie in [0, 1] per channel");
-      if (!std::isfinite(m.ke[k]) || m.ke[k] < 0) throw InputError(path, 0, "material '" + m.name + "': bad Ke");
-    }
-    if (!(m.ns >= 0)) throw InputError(path, 0, "material '" + m.name + "': Ns must be ≥ 0");
-    mat_index.push_back(is_black(m.ks) ? scene.add_material(Bsdf::make_diffuse(m.kd, true))
-                                       : scene.add_material(Bsdf::make_phong(m.kd, m.ks, m.ns, true)));
-  }
-  uint32_t fallback = scene.add_material(Bsdf::make_diffuse({0.5f, 0.5f, 0.5f}, true));
-  // Split faces by material so each group is one add_mesh call.
-  size_t nmat = mesh.materials.size();
-  for (size_t g = 0; g <= nmat; ++g) {
-    std::vector<uint32_t> idx;
-    for (size_t f = 0; f < mesh.face_material.size(); ++f) {
-      int fm = mesh.face_material[f];
-      size_t group = (fm < 0 || size_t(fm) >= nmat) ? nmat : size_t(fm);
-      if (group != g) continue;
-      idx.insert(idx.end(), {mesh.indices[3 * f], mesh.indices[3 * f + 1], mesh.indices[3 * f + 2]});
-    }
-    if (idx.empty()) continue;
-    const Color* emission = (g < nmat && !is_black(mesh.materials[g].ke)) ? &mesh.materials[g].ke : nullptr;
-    // Positions are shared; add_mesh copies them per group (simple, meshes are small).
-    scene.add_mesh(mesh.positions, mesh.normals, idx, g < nmat ? mat_index[g] : fallback, emission);
-  }
-
-  frame_bounds(scene, path);
-  scene.settings.spp = 64;
-  scene.settings.integrator.max_depth = -1;
-  scene.compile();
-  return scene;
-}
-
-void frame_bounds(Scene& scene, const std::string& path) {
-  // A 512² camera framing the bounds from +z, 40° field of view.
-  scene.compile();
-  Vec3 c = (scene.bounds_min + scene.bounds_max) * 0.5f;
-  Vec3 ext = scene.bounds_max - scene.bounds_min;
-  float half = 0.5f * std::max(ext.x, ext.y);
-  float t = std::tan(20.f * kPi / 180.f);
-  Camera& cam = scene.camera;
-  cam.width = cam.height = 512;
-  cam.tan_half_x = cam.tan_half_y = t;
-  cam.origin = {c.x, c.y, scene.bounds_max.z + half / t * 1.05f};
-  if (!is_finite(cam.origin) || max_abs(cam.origin) > kMaxCoordinate)
-    throw InputError(path, 0, "the model is too large to frame (the camera would lie beyond 1e18)");
-  cam.x_axis = {-1, 0, 0};
-  cam.y_axis = {0, 1, 0};
-  cam.z_axis = {0, 0, -1};
-}
-
-Scene load_scene(const std::string& path, const Defines& defines) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) throw InputError(path, 0, "cannot open file: no such file");
-  std::string e = lower_extension(path);
-  if (e == ".xml") return load_mitsuba(path, defines);
-  if (e == ".obj") {
-    if (!defines.empty()) throw InputError(path, 0, "-D applies to Mitsuba XML scenes only");
-    return load_obj_scene(path);
-  }
-  if (e == ".gltf" || e == ".glb") {
-    if (!defines.empty()) throw InputError(path, 0, "-D applies to Mitsuba XML scenes only");
-    return load_gltf(path);
-  }
-  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj, .gltf, .glb)");
-}
 
 }  // namespace luz

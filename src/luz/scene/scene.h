@@ -42,6 +42,8 @@ struct Scene {
   std::vector<float> srgb_table;
   Camera camera;
   RenderSettings settings;
+  // One-line warnings of the loader ("file:line: warning: ..."), for the CLI to print.
+  std::vector<std::string> warnings;
 
   // Filled by compile().
   // Light selection: the power alias table (light_pmf[k] = P(light k)) and

@@ -1,4 +1,4 @@
-#include "luz/io/obj.h"
+#include "luz/io/mesh_obj.h"
 
 #include <tiny_obj_loader.h>
 

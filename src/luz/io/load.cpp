@@ -1,0 +1,31 @@
+#include "luz/io/load.h"
+
+#include <filesystem>
+
+#include "luz/io/error.h"
+#include "luz/io/gltf.h"
+
+namespace luz {
+
+namespace {
+
+std::string lower_extension(const std::string& path) {
+  std::string e = std::filesystem::path(path).extension().string();
+  for (char& c : e) c = char(std::tolower((unsigned char)c));
+  return e;
+}
+
+}  // namespace
+
+Scene load_scene(const std::string& path, const Defines& defines) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw InputError(path, 0, "cannot open file: no such file");
+  const std::string e = lower_extension(path);
+  if (e == ".xml") return load_mitsuba(path, defines);
+  if (!defines.empty()) throw InputError(path, 0, "-D applies to Mitsuba XML scenes only");
+  if (e == ".obj") return load_obj_scene(path);
+  if (e == ".gltf" || e == ".glb") return load_gltf(path);
+  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj, .gltf, .glb)");
+}
+
+}  // namespace luz

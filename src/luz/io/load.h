@@ -1,0 +1,20 @@
+// Scene loading: the format follows the extension (load.cpp); each reader
+// calls a SceneBuilder (scene/scene_builder.h). Errors are InputError:
+// "file:line: problem".
+#pragma once
+
+#include <map>
+#include <string>
+
+#include "luz/scene/scene.h"
+
+namespace luz {
+
+using Defines = std::map<std::string, std::string>;
+
+// By extension: .xml (Mitsuba), .obj (OBJ/MTL), .gltf and .glb (glTF 2.0: io/gltf.h).
+Scene load_scene(const std::string& path, const Defines& defines = {});
+Scene load_mitsuba(const std::string& path, const Defines& defines = {});
+Scene load_obj_scene(const std::string& path);
+
+}  // namespace luz

@@ -1,0 +1,404 @@
+#include "luz/scene/scene_builder.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <stdexcept>
+
+#include "luz/io/error.h"
+#include "luz/io/image.h"
+
+namespace luz {
+
+namespace {
+
+float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
+
+std::string lower_extension(const std::string& path) {
+  std::string e = std::filesystem::path(path).extension().string();
+  for (char& c : e) c = char(std::tolower((unsigned char)c));
+  return e;
+}
+
+}  // namespace
+
+SceneBuilder::SceneBuilder(std::string file) : file_(std::move(file)) {}
+
+void SceneBuilder::error(const SourceLoc& at, const std::string& problem) const {
+  throw InputError(at.file.empty() ? file_ : at.file, at.line, problem);
+}
+
+void SceneBuilder::warn(const SourceLoc& at, const std::string& problem) {
+  const std::string& f = at.file.empty() ? file_ : at.file;
+  std::string w = InputError::one_line(f);
+  if (at.line > 0) w += ":" + std::to_string(at.line);
+  scene_.warnings.push_back(w + ": warning: " + InputError::one_line(problem));
+}
+
+// ---- textures ----
+
+int32_t SceneBuilder::push_texture_stats(int32_t index, const TextureStats& stats) {
+  texture_stats_.resize(scene_.textures.size());
+  texture_stats_[size_t(index)] = stats;
+  return index;
+}
+
+int32_t SceneBuilder::add_image_texture(const SourceLoc& at, const ImageTextureDesc& d) {
+  char key_tail[160];
+  const UvTransform& m = d.to_uv;
+  std::snprintf(key_tail, sizeof key_tail, "|%d|%d|%d|%a|%a|%a|%a|%a|%a", int(d.srgb), int(d.filter), int(d.wrap), m.a,
+                m.b, m.c, m.d, m.e, m.f);
+  const std::string key = d.path + key_tail;
+  if (auto it = image_cache_.find(key); it != image_cache_.end()) return it->second;
+
+  BitmapTexture bm;
+  bm.filter = d.filter;
+  bm.wrap = d.wrap;
+  bm.srgb = d.srgb;
+  TextureStats stats;
+  double sum[3] = {0, 0, 0};
+  stats.min = {INFINITY, INFINITY, INFINITY};
+  stats.max = {0.f, 0.f, 0.f};
+  auto account = [&](Color c) {
+    for (int k = 0; k < 3; ++k) sum[k] += c[k];
+    stats.min = vmin(stats.min, c);
+    stats.max = vmax(stats.max, c);
+  };
+  // Read first (a reader's error gains this place), then check and add.
+  const bool is_float = [&] {
+    const std::string ext = lower_extension(d.path);
+    return ext == ".exr" || ext == ".hdr" || ext == ".pfm";
+  }();
+  Image img;
+  Image8 img8;
+  try {
+    if (is_float) img = read_image_linear(d.path);  // float texels are linear: srgb changes nothing
+    else img8 = read_image8(d.path);
+  } catch (const InputError& e) {
+    error(at, e.what());
+  }
+  int32_t index = -1;
+  size_t texels = 0;
+  try {
+    if (is_float) {
+      texels = size_t(img.width) * size_t(img.height);
+      for (size_t k = 0; k < texels; ++k) {
+        const Color c{img.rgb[3 * k], img.rgb[3 * k + 1], img.rgb[3 * k + 2]};
+        if (!is_finite(c) || c.x < 0.f || c.y < 0.f || c.z < 0.f)
+          error(at, "bitmap '" + d.path + "': texel (" + std::to_string(k % size_t(img.width)) + ", " +
+                        std::to_string(k / size_t(img.width)) + ") is negative or not finite");
+        account(c);
+      }
+      bm.width = uint32_t(img.width), bm.height = uint32_t(img.height);
+      index = int32_t(scene_.add_bitmap(bm, d.to_uv, img.rgb));
+    } else {
+      bm.width = uint32_t(img8.width), bm.height = uint32_t(img8.height);
+      index = int32_t(scene_.add_bitmap(bm, d.to_uv, img8.rgba));
+      texels = img8.rgba.size();
+      const float* table = scene_.srgb_table.data();
+      for (uint32_t texel : img8.rgba) account(texel_color(texel, bm.srgb, table));
+    }
+  } catch (const std::length_error& e) {
+    error(at, e.what());
+  }
+  for (int k = 0; k < 3; ++k) stats.mean[k] = float(sum[k] / double(texels));
+  image_cache_[key] = index;
+  return push_texture_stats(index, stats);
+}
+
+int32_t SceneBuilder::add_checkerboard(const SourceLoc& at, Color color0, Color color1, const UvTransform& to_uv) {
+  for (Color v : {color0, color1})
+    if (!is_finite(v) || !(v.x >= 0.f && v.y >= 0.f && v.z >= 0.f))
+      error(at, "checkerboard colours must be finite and not negative");
+  CheckerboardTexture c;
+  c.color0 = color0;
+  c.color1 = color1;
+  Texture tex(c);
+  tex.to_uv = to_uv;
+  int32_t index;
+  try {
+    index = int32_t(scene_.add_texture(tex));
+  } catch (const std::length_error& e) {
+    error(at, e.what());
+  }
+  return push_texture_stats(index, {(color0 + color1) * 0.5f, vmin(color0, color1), vmax(color0, color1)});
+}
+
+TextureStats SceneBuilder::bitmap_stats(const Texture& t) const {
+  TextureView v;
+  v.texels8 = scene_.texels8.data();
+  v.texelsf = scene_.texelsf.data();
+  v.srgb_table = scene_.srgb_table.data();
+  TextureStats stats;
+  double sum[3] = {0, 0, 0};
+  stats.min = {INFINITY, INFINITY, INFINITY};
+  stats.max = {0.f, 0.f, 0.f};
+  const uint32_t n = t.bitmap.width * t.bitmap.height;
+  for (uint32_t k = 0; k < n; ++k) {
+    const Color c = t.scale * v.texel(t.bitmap, k);
+    for (int j = 0; j < 3; ++j) sum[j] += c[j];
+    stats.min = vmin(stats.min, c);
+    stats.max = vmax(stats.max, c);
+  }
+  for (int j = 0; j < 3; ++j) stats.mean[j] = float(sum[j] / double(n));
+  return stats;
+}
+
+int32_t SceneBuilder::add_image8(const SourceLoc& at, BitmapTexture bm, const UvTransform& to_uv,
+                                 const std::vector<uint32_t>& rgba) {
+  if (bm.width == 0 || bm.height == 0 || size_t(bm.width) * bm.height != rgba.size())
+    error(at, "an image's size does not match its texels");
+  int32_t index = -1;
+  try {
+    index = int32_t(scene_.add_bitmap(bm, to_uv, rgba));
+  } catch (const std::length_error& e) {
+    error(at, e.what());
+  }
+  return push_texture_stats(index, bitmap_stats(scene_.textures[size_t(index)]));
+}
+
+int32_t SceneBuilder::add_texture(const SourceLoc& at, const Texture& t) {
+  if (!is_finite(t.scale) || !(t.scale.x >= 0.f && t.scale.y >= 0.f && t.scale.z >= 0.f))
+    error(at, "a texture's scale must be finite and not negative");
+  if (t.type != TextureType::Bitmap) error(at, "add_texture takes bitmaps");
+  const BitmapTexture& b = t.bitmap;
+  const size_t texels = size_t(b.width) * b.height;
+  const size_t stored = b.is_float ? scene_.texelsf.size() / 3 : scene_.texels8.size();
+  if (texels == 0 || b.offset > stored || texels > stored - b.offset) error(at, "a texture's texels lie outside the scene's");
+  int32_t index = -1;
+  try {
+    index = int32_t(scene_.add_texture(t));
+  } catch (const std::length_error& e) {
+    error(at, e.what());
+  }
+  return push_texture_stats(index, bitmap_stats(t));
+}
+
+// ---- materials ----
+
+uint32_t SceneBuilder::add_material(const SourceLoc& at, const MaterialDesc& d) {
+  const int32_t n = int32_t(scene_.textures.size());
+  auto check = [&](int32_t t, const char* what) {
+    if (t < -1 || t >= n) error(at, std::string(what) + " names no texture");
+  };
+  for (const TextureBinding& b : d.bindings) check(b.texture, "a texture binding");
+  check(d.opacity_texture, "the opacity");
+  check(d.normal_map, "the normal map");
+  check(d.bump_map, "the bump map");
+  if (!(d.opacity >= 0.f && d.opacity <= 1.f)) error(at, "opacity must lie in [0, 1]");
+  if (!std::isfinite(d.bump_scale)) error(at, "the bump scale is not finite");
+  if (!(d.alpha_cutoff <= 1.f)) error(at, "the alpha cutoff must be at most 1 (negative: none)");
+  if (scene_.materials.size() >= size_t(UINT32_MAX)) error(at, "more than 2^32 - 1 materials");
+  const uint32_t m = scene_.add_material(d.bsdf, d.bindings, d.opacity, d.opacity_texture);
+  Material& mat = scene_.materials[m];
+  mat.normal_map = d.normal_map;
+  mat.bump_map = d.bump_map;
+  mat.bump_scale = d.bump_scale;
+  mat.alpha_cutoff = d.alpha_cutoff;
+  return m;
+}
+
+MaterialDesc SceneBuilder::material(uint32_t index) const {
+  const Material& m = scene_.materials.at(index);
+  const auto first = scene_.texture_bindings.begin() + std::ptrdiff_t(m.first_binding);
+  MaterialDesc d;
+  d.bsdf = m.bsdf;
+  d.bindings.assign(first, first + std::ptrdiff_t(m.num_bindings));
+  d.opacity = m.opacity;
+  d.opacity_texture = m.opacity_texture;
+  d.normal_map = m.normal_map;
+  d.bump_map = m.bump_map;
+  d.bump_scale = m.bump_scale;
+  d.alpha_cutoff = m.alpha_cutoff;
+  return d;
+}
+
+uint32_t SceneBuilder::default_material() {
+  if (default_material_ < 0) default_material_ = int32_t(scene_.add_material(MaterialDesc().bsdf));
+  return uint32_t(default_material_);
+}
+
+// ---- shapes ----
+
+void SceneBuilder::check_emission(const SourceLoc& at, const AreaEmission& e) const {
+  for (int k = 0; k < 3; ++k)
+    if (!(e.radiance[k] >= 0.f) || !std::isfinite(e.radiance[k])) error(at, "radiance must be finite and not negative");
+  if (e.texture < -1 || e.texture >= int32_t(scene_.textures.size())) error(at, "the emitter names no texture");
+}
+
+void SceneBuilder::check_shape_material(const SourceLoc& at, uint32_t material, const AreaEmission* emission,
+                                        bool has_uvs, const char* what) const {
+  if (material >= scene_.materials.size()) error(at, "the shape names no material");
+  const Material& m = scene_.materials[material];
+  const bool textured_bsdf = m.num_bindings > 0 || m.opacity_texture >= 0 || m.normal_map >= 0 || m.bump_map >= 0;
+  if (emission) check_emission(at, *emission);
+  const bool textured_emitter = emission && emission->texture >= 0;
+  if ((textured_bsdf || textured_emitter) && !has_uvs)
+    error(at, std::string(textured_bsdf ? "a textured material" : "a textured emitter") + " on " + what +
+                  " without texture coordinates");
+  // Light sampling would pick points on the cut-away parts too.
+  if (emission && m.masked()) error(at, "a masked material on an emitting shape is not supported");
+}
+
+void SceneBuilder::add_mesh(const SourceLoc& at, TriangleMesh mesh, uint32_t material, const AreaEmission* emission,
+                            bool flip_normals) {
+  const size_t nv = mesh.positions.size();
+  if (mesh.indices.size() % 3 != 0) error(at, "the mesh's index count is not a multiple of 3");
+  if (!mesh.normals.empty() && mesh.normals.size() != nv) error(at, "the mesh has normals for some vertices only");
+  if (!mesh.uvs.empty() && mesh.uvs.size() != nv)
+    error(at, "the mesh has texture coordinates for some vertices only");
+  check_shape_material(at, material, emission, !mesh.uvs.empty(), "a mesh");
+  for (size_t k = 0; k < nv; ++k)
+    if (!is_finite(mesh.positions[k]) || max_abs(mesh.positions[k]) > kMaxCoordinate)
+      error(at, "vertex " + std::to_string(k) + " is not finite or lies beyond 1e18");
+  // A vertex normal that is not finite (exporters write NaN for degenerate
+  // faces) becomes zero: such a vertex shades flat, as one with no normal.
+  size_t bad_normals = 0;
+  for (Vec3& n : mesh.normals)
+    if (!is_finite(n)) n = Vec3{}, ++bad_normals;
+  if (bad_normals > 0)
+    warn(at, std::to_string(bad_normals) + " vertex normal" + (bad_normals > 1 ? "s are" : " is") +
+                 " not finite: shaded flat");
+  for (size_t k = 0; k < mesh.uvs.size(); ++k)
+    if (!std::isfinite(mesh.uvs[k].x) || !std::isfinite(mesh.uvs[k].y))
+      error(at, "the texture coordinates of vertex " + std::to_string(k) + " are not finite");
+  for (size_t k = 0; k < mesh.indices.size(); ++k)
+    if (mesh.indices[k] >= nv)
+      error(at, "index " + std::to_string(mesh.indices[k]) + " (triangle " + std::to_string(k / 3) + ") is out of range (" +
+                    std::to_string(nv) + " vertices)");
+  // The scene's arrays are indexed by 32 bits (and Embree's primitive IDs).
+  if (scene_.positions.size() + nv >= size_t(UINT32_MAX) ||
+      scene_.tri_material.size() + mesh.indices.size() / 3 >= size_t(UINT32_MAX))
+    error(at, "the scene would have more than 2^32 - 1 vertices or triangles");
+  if (emission && scene_.lights.size() + mesh.indices.size() / 3 >= size_t(INT32_MAX))
+    error(at, "the scene would have more than 2^31 - 1 lights");
+  if (flip_normals) {
+    for (size_t k = 0; k + 2 < mesh.indices.size(); k += 3) std::swap(mesh.indices[k + 1], mesh.indices[k + 2]);
+    for (Vec3& n : mesh.normals) n = -n;
+  }
+  scene_.add_mesh(mesh.positions, mesh.normals, mesh.indices, material, emission ? &emission->radiance : nullptr,
+                  mesh.uvs, emission ? emission->texture : -1);
+}
+
+void SceneBuilder::add_sphere(const SourceLoc& at, Vec3 center, float radius, uint32_t material,
+                              const AreaEmission* emission, bool flip_normals) {
+  check_shape_material(at, material, emission, false, "a sphere");
+  if (emission && emission->texture >= 0) error(at, "a textured emitter on a sphere is not supported");
+  if (!(radius > 0.f) || !std::isfinite(radius)) error(at, "the sphere's radius must be finite and positive");
+  if (!is_finite(center) || max_abs(center) + radius > kMaxCoordinate)
+    error(at, "the sphere is not finite or reaches beyond 1e18");
+  scene_.add_sphere(center, radius, material, emission ? &emission->radiance : nullptr, flip_normals);
+}
+
+// ---- instancing ----
+
+uint32_t SceneBuilder::begin_object(const SourceLoc& at, const std::string& name) {
+  if (objects_.size() >= size_t(INT32_MAX)) error(at, "more than 2^31 - 1 objects");
+  objects_.push_back({name, {}, {}});
+  return uint32_t(objects_.size() - 1);
+}
+
+void SceneBuilder::add_object_mesh(const SourceLoc& at, uint32_t object, TriangleMesh mesh, uint32_t material) {
+  if (object >= objects_.size()) error(at, "no such object");
+  objects_[object].meshes.push_back(std::move(mesh));
+  objects_[object].materials.push_back(material);
+}
+
+// Instances are flattened: each places a transformed copy of its object's
+// meshes. (Normals by the inverse transpose; the winding is kept, so a
+// mirroring transform flips the geometric normal, as in Mitsuba and pbrt.)
+void SceneBuilder::add_instance(const SourceLoc& at, uint32_t object, const Matrix4& to_world) {
+  if (object >= objects_.size()) error(at, "no such object");
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      if (!std::isfinite(to_world.m[r][c])) error(at, "the instance's transform is not finite");
+  const Object& o = objects_[object];
+  for (size_t k = 0; k < o.meshes.size(); ++k) {
+    TriangleMesh m = o.meshes[k];
+    for (Vec3& p : m.positions) p = to_world.point(p);
+    for (Vec3& n : m.normals) n = to_world.normal(n);
+    add_mesh(at, std::move(m), o.materials[k]);
+  }
+  ++num_instances_;
+}
+
+// ---- lights ----
+
+void SceneBuilder::add_light(const SourceLoc& at, const Light& light) {
+  if (is_environment(light))
+    for (const Light& l : scene_.lights)
+      if (is_environment(l)) error(at, "only one environment emitter is supported");
+  if (scene_.lights.size() >= size_t(INT32_MAX)) error(at, "more than 2^31 - 1 lights");
+  scene_.lights.push_back(light);
+}
+
+void SceneBuilder::add_envmap(const SourceLoc& at, EnvmapLight l, const Image& img, const std::string& name) {
+  if (img.width < 2 || img.height < 3) error(at, "envmap '" + name + "' must be at least 2x3 pixels");
+  if (size_t(img.width) * size_t(img.height) > (size_t(1) << 28))
+    error(at, "envmap '" + name + "' has more than 2^28 pixels");
+  for (size_t k = 0; k < img.rgb.size(); ++k)
+    if (!(img.rgb[k] >= 0.f) || !std::isfinite(img.rgb[k])) {
+      const size_t px = k / 3;
+      error(at, "envmap '" + name + "': pixel (" + std::to_string(px % size_t(img.width)) + ", " +
+                    std::to_string(px / size_t(img.width)) + ") is " +
+                    (std::isfinite(img.rgb[k]) ? "negative" : "not finite"));
+    }
+  if (!(l.scale >= 0.f) || !std::isfinite(l.scale)) error(at, "the envmap's scale must be finite and not negative");
+  for (const Light& e : scene_.lights)
+    if (is_environment(e)) error(at, "only one environment emitter is supported");
+  build_envmap(l, img.rgb, uint32_t(img.width), uint32_t(img.height), scene_.light_data);
+  scene_.lights.push_back(l);
+}
+
+// ---- camera ----
+
+void SceneBuilder::set_camera(const SourceLoc& at, const Camera& cam) {
+  if (has_camera_) error(at, "only one camera is supported");
+  if (cam.width < 1 || cam.height < 1 || cam.width > 65536 || cam.height > 65536)
+    error(at, "film size must be between 1 and 65536");
+  if (!(cam.tan_half_x > 0.f) || !(cam.tan_half_y > 0.f) || !std::isfinite(cam.tan_half_x) ||
+      !std::isfinite(cam.tan_half_y))
+    error(at, "the camera's field of view is degenerate");
+  // Embree refuses (asserts on) rays whose origin or direction is not finite
+  // or exceeds 1.8e18 in magnitude.
+  if (!is_finite(cam.x_axis) || !is_finite(cam.y_axis) || !is_finite(cam.z_axis) || length(cam.z_axis) == 0.f)
+    error(at, "the camera's transform gives it a degenerate orientation");
+  if (!is_finite(cam.origin) || max_abs(cam.origin) > kMaxCoordinate)
+    error(at, "the camera lies too far from the origin (a coordinate beyond 1e18)");
+  if (cam.type == CameraType::Orthographic &&
+      max_abs(cam.x_axis) + max_abs(cam.y_axis) * cam.tan_half_y + max_abs(cam.origin) > kMaxCoordinate)
+    error(at, "the orthographic view reaches beyond 1e18");
+  scene_.camera = cam;
+  has_camera_ = true;
+}
+
+void SceneBuilder::frame_bounds(int width, int height) {
+  scene_.compile();
+  const Vec3 c = (scene_.bounds_min + scene_.bounds_max) * 0.5f;
+  const Vec3 ext = scene_.bounds_max - scene_.bounds_min;
+  const float half = 0.5f * std::max(ext.x, ext.y);
+  const float t = std::tan(20.f * kPi / 180.f);
+  Camera cam;
+  cam.width = width;
+  cam.height = height;
+  cam.tan_half_x = cam.tan_half_y = t;
+  if (width > height) cam.tan_half_x = t * float(width) / float(height);
+  else cam.tan_half_y = t * float(height) / float(width);
+  cam.origin = {c.x, c.y, scene_.bounds_max.z + half / t * 1.05f};
+  if (!is_finite(cam.origin) || max_abs(cam.origin) > kMaxCoordinate)
+    error({}, "the model is too large to frame (the camera would lie beyond 1e18)");
+  cam.x_axis = {-1, 0, 0};
+  cam.y_axis = {0, 1, 0};
+  cam.z_axis = {0, 0, -1};
+  set_camera({}, cam);
+}
+
+Scene SceneBuilder::finish() {
+  if (scene_.num_triangles() == 0 && scene_.spheres.empty()) error({}, "the scene has no shapes");
+  if (!has_camera_) error({}, "the scene has no camera");
+  scene_.compile();
+  return std::move(scene_);
+}
+
+}  // namespace luz

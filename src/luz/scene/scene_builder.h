@@ -1,0 +1,164 @@
+// What every scene reader calls: meshes, objects and their instances,
+// materials, textures, lights, the camera and the settings, each with the
+// place in the file it came from. The builder holds the checks that all
+// formats share (finite numbers and coordinates within Embree's range, indices
+// in range, texture coordinates for textured materials, one environment, the
+// limits of the scene's arrays) and reports them as InputError
+// "file:line: problem". Format-specific checks stay in the readers.
+#pragma once
+
+#include <map>
+#include <string>
+#include <vector>
+
+#include "luz/math/transform.h"
+#include "luz/scene/scene.h"
+
+namespace luz {
+
+struct Image;
+
+// Where something was written: a file and a line (0: unknown or not a text
+// file; readers of binary files name the byte offset in the message).
+struct SourceLoc {
+  std::string file;
+  int line = 0;
+};
+
+struct TriangleMesh {
+  std::vector<Vec3> positions;
+  std::vector<Vec3> normals;  // empty, or one per position
+  std::vector<Vec2> uvs;      // empty, or one per position (texture.h's convention: v = 0 at the image's top)
+  std::vector<uint32_t> indices;
+};
+
+// An area emitter on a shape: a constant radiance, or a texture whose mean
+// the radiance then holds (what power and light selection use).
+struct AreaEmission {
+  Color radiance{1.f, 1.f, 1.f};
+  int32_t texture = -1;
+};
+
+// A material as the readers describe it (see material/material.h).
+struct MaterialDesc {
+  Bsdf bsdf = Bsdf::make_diffuse({0.5f, 0.5f, 0.5f});
+  std::vector<TextureBinding> bindings;
+  float opacity = 1.f;
+  int32_t opacity_texture = -1;
+  int32_t normal_map = -1, bump_map = -1;
+  float bump_scale = 1.f;
+  float alpha_cutoff = -1.f;  // Material::alpha_cutoff (glTF's alphaMode MASK)
+  bool masked() const { return opacity_texture >= 0 || opacity < 1.f; }
+  bool has_map() const { return normal_map >= 0 || bump_map >= 0; }
+  // Whether the material needs texture coordinates.
+  bool textured() const { return !bindings.empty() || opacity_texture >= 0 || normal_map >= 0 || bump_map >= 0; }
+};
+
+// A texture's texel statistics per channel: what readers check parameter
+// ranges against and what a textured parameter's constant part holds.
+struct TextureStats {
+  Color mean, min, max;
+};
+
+// An image texture: the file (a path as given or resolved by the reader),
+// how its texels are read and looked up.
+struct ImageTextureDesc {
+  std::string path;
+  bool srgb = true;  // 8-bit files only: float files are linear
+  TextureFilter filter = TextureFilter::Bilinear;
+  WrapMode wrap = WrapMode::Repeat;
+  UvTransform to_uv;
+};
+
+class SceneBuilder {
+ public:
+  // `file`: the scene file, named by messages that have no better place.
+  explicit SceneBuilder(std::string file);
+
+  [[noreturn]] void error(const SourceLoc& at, const std::string& problem) const;
+  // A one-line warning "file:line: warning: ..." kept in Scene::warnings.
+  void warn(const SourceLoc& at, const std::string& problem);
+  const std::string& file() const { return file_; }
+
+  // ---- textures ----
+  // An image file read once per (path, srgb, filter, wrap, to_uv): a second
+  // request returns the same index. Texels must be finite and not negative.
+  int32_t add_image_texture(const SourceLoc& at, const ImageTextureDesc& desc);
+  int32_t add_checkerboard(const SourceLoc& at, Color color0, Color color1, const UvTransform& to_uv);
+  // An 8-bit image already in memory (glTF's embedded and binary-chunk
+  // images): packed RGBA texels, rows top to bottom.
+  int32_t add_image8(const SourceLoc& at, BitmapTexture bitmap, const UvTransform& to_uv,
+                     const std::vector<uint32_t>& rgba);
+  // Another view of texels already added (a channel, a scale, other lookup
+  // settings: texture.h), e.g. a copy of an earlier texture changed.
+  int32_t add_texture(const SourceLoc& at, const Texture& texture);
+  const TextureStats& texture_stats(int32_t texture) const { return texture_stats_.at(size_t(texture)); }
+
+  // ---- materials ----
+  uint32_t add_material(const SourceLoc& at, const MaterialDesc& desc);
+  MaterialDesc material(uint32_t index) const;
+  // Mitsuba's default material: diffuse, reflectance 0.5 (one shared index).
+  uint32_t default_material();
+
+  // ---- shapes (world space) ----
+  // Checks: whole triangles, indices in range, finite positions within 1e18,
+  // normals and uvs one per position, texture coordinates where the material
+  // or the emitter is textured, no masked emitter.
+  void add_mesh(const SourceLoc& at, TriangleMesh mesh, uint32_t material, const AreaEmission* emission = nullptr,
+                bool flip_normals = false);
+  void add_sphere(const SourceLoc& at, Vec3 center, float radius, uint32_t material,
+                  const AreaEmission* emission = nullptr, bool flip_normals = false);
+
+  // ---- instancing ----
+  // An object: meshes stored once (in object space), placed by instances.
+  // Emitters inside objects are refused (as in pbrt-v4 and Mitsuba 3).
+  uint32_t begin_object(const SourceLoc& at, const std::string& name);
+  void add_object_mesh(const SourceLoc& at, uint32_t object, TriangleMesh mesh, uint32_t material);
+  void add_instance(const SourceLoc& at, uint32_t object, const Matrix4& to_world);
+  size_t num_instances() const { return num_instances_; }
+
+  // ---- lights other than area emitters ----
+  void add_light(const SourceLoc& at, const Light& light);
+  // An equirectangular environment map from an image (pixels checked here).
+  void add_envmap(const SourceLoc& at, EnvmapLight light, const Image& image, const std::string& name);
+
+  // ---- camera and settings ----
+  void set_camera(const SourceLoc& at, const Camera& camera);
+  bool has_camera() const { return has_camera_; }
+  // A camera that frames the scene's bounds from +z (40° field of view) at
+  // width × height: for formats without a camera (OBJ, PLY, glTF).
+  void frame_bounds(int width, int height);
+  RenderSettings& settings() { return scene_.settings; }
+  const Scene& scene() const { return scene_; }
+
+  // The finished scene: it must have a shape and a camera; compiled.
+  Scene finish();
+
+ private:
+  void check_emission(const SourceLoc& at, const AreaEmission& e) const;
+  void check_shape_material(const SourceLoc& at, uint32_t material, const AreaEmission* emission,
+                            bool has_uvs, const char* what) const;
+  int32_t push_texture_stats(int32_t index, const TextureStats& stats);
+  TextureStats bitmap_stats(const Texture& texture) const;
+
+  struct Object {
+    std::string name;
+    std::vector<TriangleMesh> meshes;
+    std::vector<uint32_t> materials;
+  };
+
+  std::string file_;
+  Scene scene_;
+  std::vector<TextureStats> texture_stats_;  // one per scene_.textures entry
+  std::map<std::string, int32_t> image_cache_;
+  std::vector<Object> objects_;
+  size_t num_instances_ = 0;
+  int32_t default_material_ = -1;
+  bool has_camera_ = false;
+};
+
+// Coordinates beyond this are refused: Embree asserts on rays whose origin
+// or direction exceed about 1.8e18.
+constexpr float kMaxCoordinate = 1e18f;
+
+}  // namespace luz

@@ -1,0 +1,170 @@
+// SceneBuilder: the checks every format shares, each refusing with the
+// place it was given; instances as the flattened meshes they stand for.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "luz/io/error.h"
+#include "luz/scene/scene_builder.h"
+
+namespace {
+
+using luz::SceneBuilder;
+using luz::SourceLoc;
+using luz::TriangleMesh;
+
+TriangleMesh quad() {
+  TriangleMesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  m.indices = {0, 1, 2, 2, 3, 0};
+  return m;
+}
+
+// Runs f on a fresh builder; it must throw one InputError at file:7 naming `problem`.
+template <class F>
+void expect_refused(F f, const std::string& problem) {
+  SceneBuilder b("scene.txt");
+  try {
+    f(b);
+    ADD_FAILURE() << "accepted (wanted: " << problem << ")";
+  } catch (const luz::InputError& e) {
+    EXPECT_EQ(e.file(), "part.txt");
+    EXPECT_EQ(e.line(), 7);
+    EXPECT_NE(e.problem().find(problem), std::string::npos) << e.what() << " (wanted: " << problem << ")";
+  }
+}
+
+const SourceLoc kAt{"part.txt", 7};
+
+TEST(SceneBuilder, MeshChecks) {
+  expect_refused([](SceneBuilder& b) {
+    TriangleMesh m = quad();
+    m.indices.push_back(0);
+    b.add_mesh(kAt, m, b.default_material());
+  }, "not a multiple of 3");
+  expect_refused([](SceneBuilder& b) {
+    TriangleMesh m = quad();
+    m.indices[4] = 4;
+    b.add_mesh(kAt, m, b.default_material());
+  }, "index 4 (triangle 1) is out of range (4 vertices)");
+  expect_refused([](SceneBuilder& b) {
+    TriangleMesh m = quad();
+    m.positions[2].y = NAN;
+    b.add_mesh(kAt, m, b.default_material());
+  }, "vertex 2 is not finite");
+  expect_refused([](SceneBuilder& b) {
+    TriangleMesh m = quad();
+    m.positions[3].x = 2e18f;
+    b.add_mesh(kAt, m, b.default_material());
+  }, "vertex 3 is not finite or lies beyond 1e18");
+  expect_refused([](SceneBuilder& b) {
+    TriangleMesh m = quad();
+    m.normals.resize(3);
+    b.add_mesh(kAt, m, b.default_material());
+  }, "normals for some vertices only");
+  expect_refused([](SceneBuilder& b) { b.add_mesh(kAt, quad(), 5); }, "names no material");
+}
+
+TEST(SceneBuilder, TexturesNeedCoordinatesAndMasksDoNotEmit) {
+  expect_refused([](SceneBuilder& b) {
+    luz::MaterialDesc d;
+    d.bindings.push_back({b.add_checkerboard(kAt, {0, 0, 0}, {1, 1, 1}, {}), luz::BsdfPart::Front,
+                          luz::BsdfParam::Reflectance});
+    b.add_mesh(kAt, quad(), b.add_material(kAt, d));
+  }, "a textured material on a mesh without texture coordinates");
+  expect_refused([](SceneBuilder& b) {
+    luz::MaterialDesc d;
+    d.opacity = 0.5f;
+    luz::AreaEmission e;
+    TriangleMesh m = quad();
+    m.uvs.assign(4, {0.f, 0.f});
+    b.add_mesh(kAt, m, b.add_material(kAt, d), &e);
+  }, "a masked material on an emitting shape");
+  expect_refused([](SceneBuilder& b) {
+    luz::AreaEmission e;
+    e.radiance.y = -1.f;
+    b.add_mesh(kAt, quad(), b.default_material(), &e);
+  }, "radiance must be finite and not negative");
+  expect_refused([](SceneBuilder& b) {
+    luz::AreaEmission e;
+    e.texture = b.add_checkerboard(kAt, {0, 0, 0}, {1, 1, 1}, {});
+    b.add_sphere(kAt, {0, 0, 0}, 1.f, b.default_material(), &e);
+  }, "a textured emitter on a sphere without texture coordinates");
+  expect_refused([](SceneBuilder& b) { b.add_checkerboard(kAt, {0, -1, 0}, {1, 1, 1}, {}); },
+                 "checkerboard colours must be finite and not negative");
+}
+
+TEST(SceneBuilder, LightsAndCamera) {
+  expect_refused([](SceneBuilder& b) {
+    b.add_light(kAt, luz::ConstantLight{});
+    b.add_light(kAt, luz::ConstantLight{});
+  }, "only one environment");
+  expect_refused([](SceneBuilder& b) { b.add_sphere(kAt, {0, 0, 0}, -1.f, b.default_material()); },
+                 "radius must be finite and positive");
+  expect_refused([](SceneBuilder& b) {
+    luz::Camera c;
+    c.origin.x = INFINITY;
+    b.set_camera(kAt, c);
+  }, "too far from the origin");
+  expect_refused([](SceneBuilder& b) {
+    luz::Camera c;
+    c.width = 0;
+    b.set_camera(kAt, c);
+  }, "film size");
+  // A finished scene needs a shape and a camera; those errors name the scene file.
+  SceneBuilder b("scene.txt");
+  b.frame_bounds(16, 16);
+  EXPECT_THROW(b.finish(), luz::InputError);
+}
+
+TEST(SceneBuilder, NonFiniteNormalsShadeFlatWithAWarning) {
+  SceneBuilder b("scene.txt");
+  TriangleMesh m = quad();
+  m.normals.assign(4, {0, 0, 1});
+  m.normals[1].x = NAN;
+  b.add_mesh(kAt, m, b.default_material());
+  b.frame_bounds(8, 8);
+  luz::Scene s = b.finish();
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_EQ(s.warnings[0], "part.txt:7: warning: 1 vertex normal is not finite: shaded flat");
+  EXPECT_EQ(s.normals[1].x, 0.f);
+  EXPECT_EQ(s.normals[1].z, 0.f);
+}
+
+// An instance adds its object's meshes transformed: the same positions (bit
+// for bit) and normals as adding the transformed mesh directly.
+TEST(SceneBuilder, InstancesEqualTheirFlattenedMeshes) {
+  const luz::Matrix4 t = luz::Matrix4::translate({1, 2, 3}) * luz::Matrix4::rotate({0, 1, 1}, 30.0) *
+                         luz::Matrix4::scale({2, 1, 0.5f});
+  TriangleMesh m = quad();
+  m.normals.assign(4, {0, 0, 1});
+
+  SceneBuilder inst("a");
+  const uint32_t mat = inst.default_material();
+  const uint32_t obj = inst.begin_object(kAt, "quad");
+  inst.add_object_mesh(kAt, obj, m, mat);
+  inst.add_instance(kAt, obj, t);
+  inst.add_instance(kAt, obj, luz::Matrix4::translate({0, 0, 5}));
+  EXPECT_EQ(inst.num_instances(), 2u);
+
+  SceneBuilder flat("b");
+  TriangleMesh m1 = m, m2 = m;
+  for (luz::Vec3& p : m1.positions) p = t.point(p);
+  for (luz::Vec3& n : m1.normals) n = t.normal(n);
+  for (luz::Vec3& p : m2.positions) p = luz::Matrix4::translate({0, 0, 5}).point(p);
+  flat.add_mesh(kAt, m1, flat.default_material());
+  flat.add_mesh(kAt, m2, flat.default_material());
+
+  const luz::Scene &a = inst.scene(), &b = flat.scene();
+  ASSERT_EQ(a.positions.size(), b.positions.size());
+  for (size_t k = 0; k < a.positions.size(); ++k) {
+    EXPECT_EQ(a.positions[k].x, b.positions[k].x);
+    EXPECT_EQ(a.positions[k].y, b.positions[k].y);
+    EXPECT_EQ(a.positions[k].z, b.positions[k].z);
+    EXPECT_EQ(a.normals[k].x, b.normals[k].x);
+    EXPECT_EQ(a.normals[k].z, b.normals[k].z);
+  }
+  EXPECT_EQ(a.indices, b.indices);
+}
+
+}  // namespace
