@@ -247,12 +247,13 @@ class GltfFiles : public TempDirTest {
     std::vector<uint16_t> fan = {0, 1, 3, 2};
     return bytes(p) + bytes(idx) + bytes(fan);
   }
-  std::string views() {
+  // Its bufferViews and accessors 0-2, then `more_views` and `more_accessors` (each ",{...}").
+  std::string views(const std::string& more_views = "", const std::string& more_accessors = "") {
     return "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":48},{\"buffer\":0,\"byteOffset\":48,"
-           "\"byteLength\":4},{\"buffer\":0,\"byteOffset\":52,\"byteLength\":8}],"
+           "\"byteLength\":4},{\"buffer\":0,\"byteOffset\":52,\"byteLength\":8}" + more_views + "],"
            "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"},"
            "{\"bufferView\":1,\"componentType\":5121,\"count\":4,\"type\":\"SCALAR\"},"
-           "{\"bufferView\":2,\"componentType\":5123,\"count\":4,\"type\":\"SCALAR\"}]";
+           "{\"bufferView\":2,\"componentType\":5123,\"count\":4,\"type\":\"SCALAR\"}" + more_accessors + "]";
   }
 };
 
@@ -334,6 +335,67 @@ TEST_F(GltfFiles, MaterialProperties) {
   s.settings.spp = 16;
   add_environment(s, 1.f);
   luz_test::render_finite(s);
+}
+
+// Textures of a material: factors as scales, metallic-roughness as the B
+// and G channels (linear), base colour and emission sRGB, the normal map
+// raw, the MASK cutoff on the base colour's alpha (scaled by the factor's),
+// KHR_texture_transform as to_uv (T R S with R = [cos sin; -sin cos]).
+TEST_F(GltfFiles, MaterialTextures) {
+  Image img;
+  img.width = img.height = 2;
+  img.rgb = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+  write_image((dir / "tex.png").string(), img);
+  std::vector<float> uv = {0, 0, 1, 0, 0, 1, 1, 1};
+  const std::string bin = quad_bin() + bytes(uv);
+  const std::string doc =
+      views(",{\"buffer\":0,\"byteOffset\":60,\"byteLength\":32}",
+            ",{\"bufferView\":3,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"}") +
+      ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":3},\"indices\":1,\"mode\":5,"
+      "\"material\":0}]}],\"nodes\":[{\"mesh\":0}],\"images\":[{\"uri\":\"tex.png\"}],"
+      "\"samplers\":[{\"magFilter\":9728,\"wrapS\":33071,\"wrapT\":33071}],"
+      "\"textures\":[{\"source\":0,\"sampler\":0}],\"materials\":[{\"alphaMode\":\"MASK\",\"alphaCutoff\":0.3,"
+      "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.25,1,0.5],\"baseColorTexture\":{\"index\":0,"
+      "\"extensions\":{\"KHR_texture_transform\":{\"offset\":[0.5,0],\"rotation\":1.5707963267948966,"
+      "\"scale\":[2,3]}}},\"metallicFactor\":0.5,\"roughnessFactor\":0.75,\"metallicRoughnessTexture\":{\"index\":0}},"
+      "\"normalTexture\":{\"index\":0},\"emissiveFactor\":[1,1,1],\"emissiveTexture\":{\"index\":0}}]";
+  Scene s = load_scene(gltf("textured.gltf", bin, doc));
+  ASSERT_EQ(s.materials.size(), 1u);
+  const Material& m = s.materials[0];
+  ASSERT_EQ(m.num_bindings, 3u);
+  auto tex = [&](uint32_t k) { return s.textures[size_t(s.texture_bindings[m.first_binding + k].texture)]; };
+  EXPECT_EQ(s.texture_bindings[m.first_binding].param, BsdfParam::BaseColor);
+  const Texture base = tex(0), rough = tex(1), metal = tex(2);
+  EXPECT_TRUE(base.bitmap.srgb);
+  EXPECT_EQ(base.bitmap.channel, TextureChannel::Rgb);
+  EXPECT_EQ(base.bitmap.filter, TextureFilter::Nearest);
+  EXPECT_EQ(base.bitmap.wrap, WrapMode::Clamp);
+  EXPECT_EQ(base.scale.y, 0.25f);
+  EXPECT_NEAR(base.to_uv.a, 0.f, 1e-6f);
+  EXPECT_NEAR(base.to_uv.b, 3.f, 1e-6f);
+  EXPECT_NEAR(base.to_uv.c, 0.5f, 1e-6f);
+  EXPECT_NEAR(base.to_uv.d, -2.f, 1e-6f);
+  EXPECT_NEAR(base.to_uv.e, 0.f, 1e-6f);
+  EXPECT_EQ(s.texture_bindings[m.first_binding + 1].param, BsdfParam::Roughness);
+  EXPECT_EQ(rough.bitmap.channel, TextureChannel::G);
+  EXPECT_FALSE(rough.bitmap.srgb);
+  EXPECT_EQ(rough.scale.x, 0.75f);
+  EXPECT_EQ(s.texture_bindings[m.first_binding + 2].param, BsdfParam::Metallic);
+  EXPECT_EQ(metal.bitmap.channel, TextureChannel::B);
+  EXPECT_EQ(metal.scale.x, 0.5f);
+  // The constants hold the textures' means: G over the 4 texels is 0.5 linear.
+  EXPECT_NEAR(m.bsdf.gltf_pbr.roughness, 0.75f * 0.5f, 1e-6f);
+  ASSERT_GE(m.opacity_texture, 0);
+  const Texture alpha = s.textures[size_t(m.opacity_texture)];
+  EXPECT_EQ(alpha.bitmap.channel, TextureChannel::A);
+  EXPECT_EQ(alpha.scale.x, 0.5f);
+  EXPECT_EQ(m.alpha_cutoff, 0.3f);
+  ASSERT_GE(m.normal_map, 0);
+  EXPECT_FALSE(s.textures[size_t(m.normal_map)].bitmap.srgb);
+  // Masked and emissive: the emission goes, with a warning.
+  EXPECT_TRUE(s.lights.empty());
+  ASSERT_FALSE(s.warnings.empty());
+  EXPECT_NE(s.warnings[0].find("without its emission"), std::string::npos) << s.warnings[0];
 }
 
 // Texture channels and scales (the glTF factors): one bitmap read as RGB,

@@ -2,8 +2,9 @@
 // or GLB container, decodes data URIs and images). Mapping onto Luz:
 //
 //  - Nodes: the default scene's node forest (matrix, or T·R·S), each mesh
-//    placed by its node's world transform and flattened (a mesh reused by
-//    several nodes is copied per node). A negative determinant reverses the
+//    placed by its node's world transform; a mesh placed by several nodes is
+//    a SceneBuilder object with one instance per node (unless it emits, or
+//    the node mirrors: then copied). A negative determinant reverses the
 //    winding, as the specification says.
 //  - Primitives: TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN (converted to
 //    triangles as §3.7.2.1 lists them); POINTS and LINES* skipped with a
@@ -109,6 +110,8 @@ class GltfLoader {
   };
   std::map<int, MaterialInfo> materials_;
   std::map<int, int32_t> image_texture_;  // image -> its texels' first Luz texture
+  std::vector<int> uses_;                  // per mesh: how many nodes place it
+  std::map<int, int32_t> objects_;         // mesh -> its SceneBuilder object (-1: flattened)
 
   [[noreturn]] void fail(const std::string& where, const std::string& problem) const {
     builder_.error(at_, where.empty() ? problem : where + ": " + problem);
@@ -198,6 +201,9 @@ class GltfLoader {
   // twice (a cycle, or shared by two parents) is an error.
   void walk(const std::vector<int>& roots) {
     std::vector<bool> seen(model_.nodes.size(), false);
+    uses_.assign(model_.meshes.size(), 0);
+    for (const tinygltf::Node& n : model_.nodes)
+      if (n.mesh >= 0 && size_t(n.mesh) < uses_.size()) ++uses_[size_t(n.mesh)];
     std::vector<std::pair<int, Matrix4>> stack;
     for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.push_back({*it, Matrix4{}});
     while (!stack.empty()) {
@@ -293,8 +299,51 @@ class GltfLoader {
   }
 
   // ---- meshes ----
+  // One triangle-mode primitive of a mesh, read and placed: where it came
+  // from, its material, its triangles.
+  struct Part {
+    SourceLoc at;
+    const MaterialInfo* material;
+    TriangleMesh mesh;
+  };
+
+  // A mesh placed by its node: a mesh that several nodes place is an object
+  // built once and instanced (SceneBuilder), unless it emits (emitters are
+  // not instanced) or the transform mirrors (glTF then reverses the winding;
+  // an instance keeps it); any other mesh is added as it is placed.
   void add_mesh(int mesh, const Matrix4& world) {
     if (size_t(mesh) >= model_.meshes.size()) fail("nodes", "no mesh " + std::to_string(mesh));
+    if (uses_[size_t(mesh)] > 1 && world.det3() > 0.0) {
+      auto it = objects_.find(mesh);
+      if (it == objects_.end()) {
+        std::vector<Part> parts = primitives(mesh, Matrix4{});
+        bool emits = false;
+        for (const Part& p : parts) emits |= p.material->emissive;
+        int32_t object = -1;
+        if (!emits) {
+          object = int32_t(builder_.begin_object(at_, at("meshes", size_t(mesh))));
+          for (Part& p : parts) builder_.add_object_mesh(p.at, uint32_t(object), std::move(p.mesh), p.material->index);
+        }
+        it = objects_.emplace(mesh, object).first;
+      }
+      if (it->second >= 0) {
+        builder_.add_instance(at_, uint32_t(it->second), world);
+        return;
+      }
+    }
+    for (Part& p : primitives(mesh, world)) {
+      const MaterialInfo& mat = *p.material;
+      if (mat.emission_texture >= 0) {
+        add_textured_emitter(p.at, std::move(p.mesh), mat);
+      } else {
+        const AreaEmission e{mat.emission, -1};
+        builder_.add_mesh(p.at, std::move(p.mesh), mat.index, mat.emissive ? &e : nullptr);
+      }
+    }
+  }
+
+  std::vector<Part> primitives(int mesh, const Matrix4& world) {
+    std::vector<Part> parts;
     const tinygltf::Mesh& m = model_.meshes[size_t(mesh)];
     const bool flip = world.det3() < 0.0;
     for (size_t pi = 0; pi < m.primitives.size(); ++pi) {
@@ -368,14 +417,9 @@ class GltfLoader {
         for (size_t i = 0; i + 2 < order.size(); ++i) tri(order[i + 1], order[i + 2], order[0]);
       }
       if (tris.empty()) continue;
-      const SourceLoc at{path_ + ": " + where, 0};
-      if (mat.emission_texture >= 0) {
-        add_textured_emitter(at, std::move(mesh), mat);
-      } else {
-        const AreaEmission e{mat.emission, -1};
-        builder_.add_mesh(at, std::move(mesh), mat.index, mat.emissive ? &e : nullptr);
-      }
+      parts.push_back({{path_ + ": " + where, 0}, &mat, std::move(mesh)});
     }
+    return parts;
   }
 
   // A primitive with an emission texture: the triangles whose texels are all
