@@ -73,6 +73,13 @@ constexpr double kLumensPerWatt = 683.0;
 
 std::string at(const char* what, size_t i) { return std::string(what) + "[" + std::to_string(i) + "]"; }
 
+// A JSON value read as an index: a whole number in [0, 2^31), else -1.
+int index_of(const tinygltf::Value& v) {
+  if (!v.IsNumber()) return -1;
+  const double d = v.GetNumberAsDouble();
+  return d >= 0.0 && d < 2147483648.0 && d == std::floor(d) ? int(d) : -1;
+}
+
 float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
 
 class GltfLoader {
@@ -536,11 +543,11 @@ class GltfLoader {
         sx = num(s.Get(0)), sy = num(s.Get(1));
       }
       if (v.Has("rotation")) r = num(v.Get("rotation"));
-      if (v.Has("texCoord")) set = int(num(v.Get("texCoord")));
+      if (v.Has("texCoord")) set = index_of(v.Get("texCoord"));
       const double c = std::cos(r), s = std::sin(r);
       to_uv = {float(c * sx), float(s * sy), float(ox), float(-s * sx), float(c * sy), float(oy)};
     }
-    if (set < 0 || set > 1) fail(where, "texCoord " + std::to_string(set) + " (Luz reads TEXCOORD_0 and TEXCOORD_1)");
+    if (set < 0 || set > 1) fail(where, "texCoord must be 0 or 1 (Luz reads TEXCOORD_0 and TEXCOORD_1)");
     if (uv_set >= 0 && uv_set != set) warn(where + ": textures of one material use two texture-coordinate sets; all read TEXCOORD_" + std::to_string(uv_set));
     else uv_set = set;
     const int32_t base = image(t.source);
@@ -635,9 +642,9 @@ class GltfLoader {
     tinygltf::ExtensionMap transmission_ext;  // the textureInfo's own extensions (KHR_texture_transform)
     if (tx != m.extensions.end() && tx->second.Has("transmissionTexture")) {
       const tinygltf::Value& t = tx->second.Get("transmissionTexture");
-      if (!t.Has("index") || !t.Get("index").IsInt()) fail(where, "transmissionTexture needs an index");
-      transmission_index = t.Get("index").GetNumberAsInt();
-      if (t.Has("texCoord") && t.Get("texCoord").IsInt()) transmission_set = t.Get("texCoord").GetNumberAsInt();
+      transmission_index = t.Has("index") ? index_of(t.Get("index")) : -1;
+      if (transmission_index < 0) fail(where, "transmissionTexture needs an index");
+      if (t.Has("texCoord")) transmission_set = index_of(t.Get("texCoord"));
       if (t.Has("extensions") && t.Get("extensions").IsObject())
         for (const std::string& k : t.Get("extensions").Keys()) transmission_ext[k] = t.Get("extensions").Get(k);
     }
@@ -766,9 +773,8 @@ class GltfLoader {
   }
 
   void add_light(const tinygltf::Value& ref, const Matrix4& world, const std::string& where) {
-    if (!ref.IsNumber()) fail(where, "KHR_lights_punctual.light must be an index");
-    const int index = ref.GetNumberAsInt();
-    if (index < 0 || size_t(index) >= model_.lights.size()) fail(where, "no light " + std::to_string(index));
+    const int index = index_of(ref);
+    if (index < 0 || size_t(index) >= model_.lights.size()) fail(where, "KHR_lights_punctual.light names no light");
     const tinygltf::Light& l = model_.lights[size_t(index)];
     const std::string lw = "KHR_lights_punctual." + at("lights", size_t(index));
     const Color color = l.color.empty() ? Color{1, 1, 1} : rgb(l.color, 3, {-1, -1, -1});
