@@ -19,6 +19,7 @@
 #include "luz/io/gltf.h"
 #include "luz/io/image.h"
 #include "luz/material/opacity.h"
+#include "cli_helpers.h"
 #include "scene_helpers.h"
 #include "temp_dir.h"
 
@@ -84,8 +85,7 @@ TEST(Gltf, SampleModelsLoad) {
   EXPECT_FLOAT_EQ(box.materials[0].bsdf.gltf_pbr.base_color.x, 0.8f);
   EXPECT_EQ(box.materials[0].bsdf.gltf_pbr.metallic, 1.f);  // glTF's default
   EXPECT_TRUE(box.lights.empty());
-  ASSERT_EQ(box.warnings.size(), 1u);  // one line: no light
-  EXPECT_NE(box.warnings[0].find("Box.gltf: warning: the scene has no light"), std::string::npos) << box.warnings[0];
+  EXPECT_TRUE(box.warnings.empty());  // no light: the command line's warning (CliNoLightAndBadFiles)
 
   Scene a = load_scene(kHelmet), b = load_scene(kHelmetGlb);
   EXPECT_EQ(a.num_triangles(), 46356u / 3);
@@ -497,5 +497,37 @@ TEST_F(GltfFiles, MalformedFilesGiveOneInputError) {
     if (off == 20) off = 20 + size_t(uint8_t(glb[12])) + (size_t(uint8_t(glb[13])) << 8) + (size_t(uint8_t(glb[14])) << 16);
     bad[off] = char(0xff), bad[off + 1] = char(0xff), bad[off + 2] = char(0xff), bad[off + 3] = char(0x7f);
     luz_test::expect_load_refused(write("lying.glb", bad), "lying.glb", "");
+  }
+}
+
+// The command line: the Box (no light) renders with exactly one warning line
+// saying so; a truncated GLB and a broken .gltf exit with status 2 and one
+// line naming the file.
+class GltfCli : public luz_test::LuzCliTest {};
+
+TEST_F(GltfCli, NoLightWarningAndBadFiles) {
+  auto lines = [](const std::string& s) {
+    std::vector<std::string> v;
+    std::stringstream ss(s);
+    for (std::string l; std::getline(ss, l);) v.push_back(l);
+    return v;
+  };
+  luz_test::CliResult r = run({"render", kBox, "--spp", "1", "-o", "box.png"});
+  ASSERT_TRUE(r.exited);
+  EXPECT_EQ(r.status, 0) << r.err;
+  int warnings = 0;
+  for (const std::string& l : lines(r.err)) warnings += l.find("warning") != std::string::npos;
+  EXPECT_EQ(warnings, 1) << r.err;
+  EXPECT_NE(r.err.find("no light"), std::string::npos) << r.err;
+  const std::string glb = read_file(kHelmetGlb);
+  write("cut.glb", glb.substr(0, glb.size() / 3));
+  write("broken.gltf", read_file(kBox).substr(0, 700));
+  for (const char* bad : {"cut.glb", "broken.gltf"}) {
+    r = run({"render", bad, "-o", "x.png"});
+    ASSERT_TRUE(r.exited) << bad << ": killed by signal " << r.signal;
+    EXPECT_EQ(r.status, 2) << bad;
+    const std::vector<std::string> err = lines(r.err);
+    ASSERT_EQ(err.size(), 1u) << r.err;
+    EXPECT_NE(err[0].find(bad), std::string::npos) << err[0];
   }
 }

@@ -93,7 +93,6 @@ class GltfLoader {
     walk(roots);
     // Area lights come first in Scene::lights (add_mesh numbers them), then the others.
     for (const Light& l : punctual_) builder_.add_light(at_, l);
-    if (builder_.scene().lights.empty()) warn("the scene has no light (no emissive material, no KHR_lights_punctual light)");
     builder_.settings().spp = 64;
     builder_.settings().integrator.max_depth = -1;
     if (!builder_.has_camera()) builder_.frame_bounds(512, 512);
