@@ -45,10 +45,16 @@ void resize(Scene& s, int w, int h) {
   s.camera.height = h;
 }
 
-void add_environment(Scene& s, float radiance) {
-  ConstantLight c;
-  c.radiance = {radiance, radiance, radiance};
-  s.lights.push_back(c);
+// A constant environment of radiance 1 (the one the loader adds to a file
+// without lights, or added here).
+void add_environment(Scene& s) {
+  bool has = false;
+  for (const Light& l : s.lights) has |= l.type == LightType::Constant && l.constant.radiance.x == 1.f;
+  if (!has) {
+    ConstantLight c;
+    c.radiance = {1.f, 1.f, 1.f};
+    s.lights.push_back(c);
+  }
   s.compile();
 }
 
@@ -84,8 +90,11 @@ TEST(Gltf, SampleModelsLoad) {
   EXPECT_EQ(box.materials[0].bsdf.type, BsdfType::GltfPbr);
   EXPECT_FLOAT_EQ(box.materials[0].bsdf.gltf_pbr.base_color.x, 0.8f);
   EXPECT_EQ(box.materials[0].bsdf.gltf_pbr.metallic, 1.f);  // glTF's default
-  EXPECT_TRUE(box.lights.empty());
-  EXPECT_TRUE(box.warnings.empty());  // no light: the command line's warning (CliNoLightAndBadFiles)
+  // No light in the file: a white sky, and one warning saying so.
+  ASSERT_EQ(box.lights.size(), 1u);
+  EXPECT_EQ(box.lights[0].type, LightType::Constant);
+  ASSERT_EQ(box.warnings.size(), 1u);
+  EXPECT_NE(box.warnings[0].find("no light in the file"), std::string::npos) << box.warnings[0];
 
   Scene a = load_scene(kHelmet), b = load_scene(kHelmetGlb);
   EXPECT_EQ(a.num_triangles(), 46356u / 3);
@@ -119,7 +128,7 @@ TEST(Gltf, SampleModelsRenderFinite) {
     Scene s = load_scene(p);
     resize(s, 24, 24);
     s.settings.spp = 4;
-    add_environment(s, 1.f);
+    add_environment(s);
     Film f = luz_test::render_finite(s);
     double sum = 0;
     for (float v : f.mean()) {
@@ -204,7 +213,7 @@ TEST(Gltf, BoxBaseColourUnderConstantLight) {
   Scene s = load_scene(kBox);
   resize(s, 15, 15);
   s.settings.spp = 16384;
-  add_environment(s, 1.f);
+  add_environment(s);
   const Film f = luz_test::render_finite(s);
   const std::vector<float> m = f.mean();
   const std::vector<double> var = f.variance_of_mean();
@@ -333,7 +342,7 @@ TEST_F(GltfFiles, MaterialProperties) {
   // Renders finite with all four (alpha-tested, blended, emitting, transmitting).
   resize(s, 16, 16);
   s.settings.spp = 16;
-  add_environment(s, 1.f);
+  add_environment(s);
   luz_test::render_finite(s);
 }
 
@@ -392,8 +401,9 @@ TEST_F(GltfFiles, MaterialTextures) {
   EXPECT_EQ(m.alpha_cutoff, 0.3f);
   ASSERT_GE(m.normal_map, 0);
   EXPECT_FALSE(s.textures[size_t(m.normal_map)].bitmap.srgb);
-  // Masked and emissive: the emission goes, with a warning.
-  EXPECT_TRUE(s.lights.empty());
+  // Masked and emissive: the emission goes, with a warning (and the white sky comes).
+  ASSERT_EQ(s.lights.size(), 1u);
+  EXPECT_EQ(s.lights[0].type, LightType::Constant);
   ASSERT_FALSE(s.warnings.empty());
   EXPECT_NE(s.warnings[0].find("without its emission"), std::string::npos) << s.warnings[0];
 }
@@ -500,8 +510,8 @@ TEST_F(GltfFiles, MalformedFilesGiveOneInputError) {
   }
 }
 
-// The command line: the Box (no light) renders with exactly one warning line
-// saying so; a truncated GLB and a broken .gltf exit with status 2 and one
+// The command line: the Box (no light) renders under the white sky with
+// exactly one warning line saying so; a truncated GLB and a broken .gltf exit with status 2 and one
 // line naming the file.
 class GltfCli : public luz_test::LuzCliTest {};
 

@@ -42,6 +42,8 @@
 //    E [lux] -> color · E / 683 W/m². Spot cones: inner -> Luz's beam width,
 //    outer -> cutoff (Luz's falloff is linear in angle between them, glTF's
 //    smooth in cosine); `range` is ignored (no cut-off).
+//  - No light at all (no emission, no punctual light): a uniform white
+//    environment of radiance 1 with a warning, as for OBJ and PLY files.
 //  - Camera: the first node with a camera in traversal order (perspective:
 //    yfov, aspectRatio; orthographic: xmag, ymag); none: the bounds framed
 //    as for an OBJ. The film is 512 pixels high (wide by the aspect ratio).
@@ -93,6 +95,12 @@ class GltfLoader {
     walk(roots);
     // Area lights come first in Scene::lights (add_mesh numbers them), then the others.
     for (const Light& l : punctual_) builder_.add_light(at_, l);
+    if (builder_.scene().lights.empty()) {  // as for mesh files (mesh_scene.cpp): the model shows
+      ConstantLight sky;
+      sky.radiance = {1.f, 1.f, 1.f};
+      builder_.add_light(at_, sky);
+      warn("no light in the file: lit by a uniform white environment (radiance 1)");
+    }
     builder_.settings().spp = 64;
     builder_.settings().integrator.max_depth = -1;
     if (!builder_.has_camera()) builder_.frame_bounds(512, 512);

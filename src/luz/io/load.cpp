@@ -24,8 +24,9 @@ Scene load_scene(const std::string& path, const Defines& defines) {
   if (e == ".xml") return load_mitsuba(path, defines);
   if (!defines.empty()) throw InputError(path, 0, "-D applies to Mitsuba XML scenes only");
   if (e == ".obj") return load_obj_scene(path);
+  if (e == ".ply") return load_ply_scene(path);
   if (e == ".gltf" || e == ".glb") return load_gltf(path);
-  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj, .gltf, .glb)");
+  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj, .ply, .gltf, .glb)");
 }
 
 }  // namespace luz

@@ -12,9 +12,11 @@ namespace luz {
 
 using Defines = std::map<std::string, std::string>;
 
-// By extension: .xml (Mitsuba), .obj (OBJ/MTL), .gltf and .glb (glTF 2.0: io/gltf.h).
+// By extension: .xml (Mitsuba), .obj (OBJ/MTL), .ply, .gltf and .glb (glTF 2.0: io/gltf.h).
 Scene load_scene(const std::string& path, const Defines& defines = {});
 Scene load_mitsuba(const std::string& path, const Defines& defines = {});
+// A mesh file as a scene (mesh_scene.cpp).
 Scene load_obj_scene(const std::string& path);
+Scene load_ply_scene(const std::string& path);
 
 }  // namespace luz

@@ -149,7 +149,8 @@ class ObjChecker {
 
 // The MTL files an OBJ names, checked the same way: tinyobjloader reads an
 // unparsable or non-finite colour or exponent as 0 without a word.
-void check_mtl_files(const std::string& obj_path, const std::string& obj_text) {
+// Missing files are warnings (the faces get the default material).
+void check_mtl_files(const std::string& obj_path, const std::string& obj_text, std::vector<ObjWarning>& warnings) {
   int obj_line = 0;
   for (size_t pos = 0; pos < obj_text.size();) {
     std::string line = next_line(obj_text, pos);
@@ -159,7 +160,10 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text) {
     for (size_t k = 1; k < tok.size(); ++k) {
       std::filesystem::path mtl = std::filesystem::path(obj_path).parent_path() / tok[k];
       std::error_code ec;
-      if (!std::filesystem::exists(mtl, ec)) continue;  // tinyobjloader's own warning path: the default material
+      if (!std::filesystem::exists(mtl, ec)) {
+        warnings.push_back({obj_path, obj_line, "mtllib '" + tok[k] + "' not found: its materials are diffuse 0.5"});
+        continue;
+      }
       // A FIFO or a device (/dev/zero) would block or never end, here and in tinyobjloader.
       if (!std::filesystem::is_regular_file(mtl, ec))
         throw InputError(obj_path, obj_line, "mtllib '" + tok[k] + "' is not a regular file");
@@ -174,7 +178,7 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text) {
         ++n;
         std::vector<std::string> t = split(ml.substr(0, ml.find('#')));
         if (t.empty()) continue;
-        static const char* kNumeric[] = {"Kd", "Ks", "Ke", "Ka", "Tf", "Ns", "Ni", "d", "Tr"};
+        static const char* kNumeric[] = {"Kd", "Ks", "Ke", "Ka", "Tf", "Ns", "Ni", "d", "Tr", "illum"};
         bool numeric = false;
         for (const char* key : kNumeric) numeric = numeric || t[0] == key;
         if (!numeric) continue;
@@ -188,11 +192,30 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text) {
           double v = std::strtod(t[j].c_str(), nullptr);
           if ((t[0] == "Kd" || t[0] == "Ks") && !(v >= 0 && v <= 1))
             throw InputError(mtl.string(), n, "'" + t[0] + "': '" + t[j] + "' must lie in [0, 1]");
-          if ((t[0] == "Ke" || t[0] == "Ns") && !(v >= 0))
+          if ((t[0] == "Ke" || t[0] == "Ns" || t[0] == "Tf") && !(v >= 0))
             throw InputError(mtl.string(), n, "'" + t[0] + "': '" + t[j] + "' must not be negative");
+          if ((t[0] == "d" || t[0] == "Tr") && !(v >= 0 && v <= 1))
+            throw InputError(mtl.string(), n, "'" + t[0] + "': '" + t[j] + "' must lie in [0, 1]");
+          if (t[0] == "Ni" && !(v > 0))
+            throw InputError(mtl.string(), n, "'Ni': '" + t[j] + "' must be positive");
         }
       }
     }
+  }
+}
+
+// `usemtl` names no material of the MTL files: a warning at its line (the
+// faces get the default material).
+void unknown_materials(const std::string& path, const std::string& text, const std::vector<tinyobj::material_t>& mats,
+                       std::vector<ObjWarning>& warnings) {
+  int line_no = 0;
+  for (size_t pos = 0; pos < text.size();) {
+    const std::vector<std::string> tok = split(next_line(text, pos));
+    ++line_no;
+    if (tok.size() < 2 || tok[0] != "usemtl") continue;
+    bool known = false;
+    for (const tinyobj::material_t& m : mats) known = known || m.name == tok[1];
+    if (!known) warnings.push_back({path, line_no, "usemtl '" + tok[1] + "': no such material: diffuse 0.5"});
   }
 }
 
@@ -210,10 +233,11 @@ std::string read_text(const std::string& path) {
 
 }  // namespace
 
-ObjMesh read_obj(const std::string& path, bool with_materials, bool with_texcoords) {
+ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texcoords) {
   const std::string text = read_text(path);
   ObjChecker(path, text).check();
-  if (with_materials) check_mtl_files(path, text);
+  ObjMesh mesh;
+  if (with_materials) check_mtl_files(path, text, mesh.warnings);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
@@ -245,8 +269,10 @@ ObjMesh read_obj(const std::string& path, bool with_materials, bool with_texcoor
         throw InputError(path, 0, "face index out of range");
   }
 
-  ObjMesh mesh;
-  if (with_materials)
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  auto texture = [&](const std::string& name) { return name.empty() ? name : (dir / name).string(); };
+  bool textured = false;
+  if (with_materials) {
     for (const tinyobj::material_t& m : reader.GetMaterials()) {
       ObjMaterial om;
       om.name = m.name;
@@ -254,11 +280,25 @@ ObjMesh read_obj(const std::string& path, bool with_materials, bool with_texcoor
       om.ks = {m.specular[0], m.specular[1], m.specular[2]};
       om.ke = {m.emission[0], m.emission[1], m.emission[2]};
       om.ns = m.shininess;
+      om.illum = m.illum;
+      om.ni = m.ior;
+      om.tf = {m.transmittance[0], m.transmittance[1], m.transmittance[2]};
+      om.d = m.dissolve;
+      om.map_kd = texture(m.diffuse_texname);
+      om.map_ks = texture(m.specular_texname);
+      om.map_ns = texture(m.specular_highlight_texname);
+      om.map_bump = texture(m.bump_texname);
+      om.map_d = texture(m.alpha_texname);
+      om.bump_multiplier = m.bump_texopt.bump_multiplier;
+      textured |= !(om.map_kd + om.map_ks + om.map_ns + om.map_bump + om.map_d).empty();
       mesh.materials.push_back(om);
     }
+    unknown_materials(path, text, reader.GetMaterials(), mesh.warnings);
+  }
 
   // Normals and texture coordinates are used only when every face vertex has one.
-  bool all_normals = !attrib.normals.empty(), all_texcoords = with_texcoords && !attrib.texcoords.empty();
+  const bool want_texcoords = texcoords == ObjTexcoords::Yes || (texcoords == ObjTexcoords::IfTextured && textured);
+  bool all_normals = !attrib.normals.empty(), all_texcoords = want_texcoords && !attrib.texcoords.empty();
   for (const tinyobj::shape_t& shape : reader.GetShapes())
     for (const tinyobj::index_t& idx : shape.mesh.indices) {
       if (idx.normal_index < 0) all_normals = false;

@@ -1,0 +1,99 @@
+// The Mitsuba reader's textures (bitmap, checkerboard) and the files a scene names (see parser.h).
+#include <cmath>
+
+#include "luz/io/mitsuba/parser.h"
+
+namespace luz::mitsuba {
+
+fs::path MitsubaParser::scene_file(pugi::xml_node n, const std::string& file, const char* what) const {
+  const fs::path full = fs::path(path_).parent_path() / file;
+  std::error_code ec;
+  if (!fs::is_regular_file(full, ec))
+    error(n, std::string("cannot open ") + what + " '" + full.string() +
+                 "': " + (fs::exists(full, ec) ? "not a regular file" : "no such file"));
+  return full;
+}
+
+UvTransform MitsubaParser::uv_transform(pugi::xml_node t, Props& p) {
+  UvTransform m;
+  if (p.has("to_uv")) {
+    const Matrix4 a = p.get_transform("to_uv");
+    if (a.m[2][0] != 0 || a.m[2][1] != 0 || a.m[2][2] != 1)
+      error(t, "to_uv must be an affine map of (u, v): its third row must be 0 0 1");
+    m = {float(a.m[0][0]), float(a.m[0][1]), float(a.m[0][2]), float(a.m[1][0]), float(a.m[1][1]), float(a.m[1][2])};
+  }
+  if (legacy_names_) {
+    const float us = float(p.get_float("uscale", 1.0)), vs = float(p.get_float("vscale", 1.0));
+    m.a *= us, m.b *= us, m.c = m.c * us + float(p.get_float("uoffset", 0.0));
+    m.d *= vs, m.e *= vs, m.f = m.f * vs + float(p.get_float("voffset", 0.0));
+  }
+  for (float v : {m.a, m.b, m.c, m.d, m.e, m.f})
+    if (!std::isfinite(v)) error(t, "to_uv is not finite");
+  return m;
+}
+
+int32_t MitsubaParser::parse_texture(pugi::xml_node t, bool load) {
+  std::string type = attr(t, "type");
+  if (type != "bitmap" && type != "checkerboard")
+    error(t, "unknown texture '" + type + "' (supported: bitmap, checkerboard)");
+  check_children(t, {});
+  Props p(this, t);
+  const UvTransform to_uv = uv_transform(t, p);
+  if (type == "checkerboard") {
+    CheckerboardTexture c;
+    for (const char* name : {"color0", "color1"}) {
+      auto it = p.by_name.find(name);
+      if (it != p.by_name.end() && (std::string(it->second.name()) == "texture" || std::string(it->second.name()) == "ref"))
+        error(it->second, std::string("a texture as the checkerboard's ") + name + " is not supported");
+    }
+    c.color0 = p.get_color("color0", c.color0);
+    c.color1 = p.get_color("color1", c.color1);
+    p.check_all_used();
+    for (Color v : {c.color0, c.color1})
+      if (!is_finite(v) || !(v.x >= 0.f && v.y >= 0.f && v.z >= 0.f))
+        error(t, "checkerboard colours must be finite and not negative");
+    if (!load) return -1;
+    return builder_.add_checkerboard(loc(t), c.color0, c.color1, to_uv);
+  }
+  std::string file = p.get_string("filename", "");
+  if (file.empty()) error(t, "bitmap texture needs a 'filename'");
+  BitmapTexture bm;
+  // Luz has no MIP maps: trilinear (Mitsuba 0.5's choice for the staircase)
+  // is looked up bilinearly at the finest level. The two differ only where
+  // a texel is smaller than a pixel's footprint, and there the many samples
+  // per pixel average the texels that trilinear filtering would pre-average.
+  std::string filter = p.get_string("filter_type", "bilinear");
+  if (filter == "nearest") bm.filter = TextureFilter::Nearest;
+  else if (filter != "bilinear" && filter != "trilinear" && filter != "ewa")  // ewa: Mitsuba 0.5's default, as trilinear
+    error(t, "unknown filter_type '" + filter + "' (supported: bilinear, trilinear, ewa, nearest)");
+  std::string wrap = p.get_string("wrap_mode", "repeat");
+  if (wrap == "mirror") bm.wrap = WrapMode::Mirror;
+  else if (wrap == "clamp") bm.wrap = WrapMode::Clamp;
+  else if (wrap != "repeat") error(t, "unknown wrap_mode '" + wrap + "' (supported: repeat, mirror, clamp)");
+  bm.srgb = !p.get_bool("raw", false);
+  double gamma = legacy_names_ ? p.get_float("gamma", -1.0) : -1.0;  // Mitsuba 3 has `raw` instead
+  if (gamma == 1.0) bm.srgb = false;
+  else if (gamma != -1.0) error(t, "bitmap gamma must be -1 (sRGB) or 1 (linear)");
+  p.check_all_used();
+  const fs::path full = scene_file(t, file, "bitmap");
+  if (!load) return -1;
+  return builder_.add_image_texture(loc(t), {full.string(), bm.srgb, bm.filter, bm.wrap, to_uv});
+}
+
+bool MitsubaParser::is_texture_ref(pugi::xml_node c) const {
+  return std::string(c.name()) == "ref" && c.attribute("name") && textures_.count(c.attribute("id").value()) > 0;
+}
+
+int32_t MitsubaParser::texture_param(Props& p, const char* name, bool load) {
+  auto it = p.by_name.find(name);
+  if (it == p.by_name.end()) return -1;
+  const std::string tag = it->second.name();
+  if (tag == "ref") {
+    p.get(name, {"ref"});
+    return int32_t(textures_.at(it->second.attribute("id").value()));
+  }
+  if (tag != "texture") return -1;
+  return parse_texture(p.get(name, {"texture"}), load);
+}
+
+}  // namespace luz::mitsuba
