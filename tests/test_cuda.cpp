@@ -345,6 +345,8 @@ std::vector<BatchCase> batch_cases() {
        false},
       {"roughplastic ggx .2", Bsdf::make_rough_plastic(G, .2f, {.5f, .5f, .5f}), false},
       {"ward-duer (.2,.1)", Bsdf::make_ward(WardVariant::WardDuer, {.3f, .3f, .3f}, {.6f, .6f, .6f}, .2f, .1f), false},
+      {"gltf metallic .3 rough .4", Bsdf::make_gltf_pbr({.8f, .5f, .2f}, .3f, .4f), false},
+      {"gltf transmission .7 rough .3", Bsdf::make_gltf_pbr_transmission({.9f, .9f, .6f}, 0.f, .3f, .7f), true},
       // A pair answers from below with its back BSDF: sampled from both sides.
       {"twosided beckmann .3 conductor / diffuse", Bsdf::make_two_sided(Bsdf::make_rough_conductor(B, .3f, .3f, eta, k),
                                                                         Bsdf::make_diffuse({.6f, .6f, .6f})),

@@ -129,13 +129,13 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
 int main(int argc, char** argv) {
   CLI::App app{"Luz: a physically based path tracer"};
   app.require_subcommand(1);
-  CLI::App* rc = app.add_subcommand("render", "render a scene (Mitsuba 3 XML, OBJ or pbrt-v4) to an image");
+  CLI::App* rc = app.add_subcommand("render", "render a scene (Mitsuba 3 XML, pbrt-v4, glTF 2.0, OBJ or PLY) to an image");
   std::string scene, sampler, integrator, light_sampler, device = "cpu";
   std::vector<std::string> outs;
   int spp = 0, threads = 0, max_depth = 0;
   long long seed = -1;
   std::vector<std::string> defines;
-  rc->add_option("scene", scene, "scene file (.xml, .obj or .pbrt)")->required();
+  rc->add_option("scene", scene, "scene file (.xml, .pbrt, .gltf, .glb, .obj or .ply)")->required();
   rc->add_option("-o,--output", outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
       ->allow_extra_args(false);
   // Whole decimal integers in a range, each flag with its own message (CLI11's
@@ -172,7 +172,7 @@ int main(int argc, char** argv) {
   CLI::App* ic = app.add_subcommand("info", "what a scene holds, without rendering: shapes, lights, materials, camera, warnings");
   std::string info_scene;
   std::vector<std::string> info_defines;
-  ic->add_option("scene", info_scene, "scene file (.xml, .obj or .ply)")->required();
+  ic->add_option("scene", info_scene, "scene file (.xml, .pbrt, .gltf, .glb, .obj or .ply)")->required();
   ic->add_option("-D", info_defines, "override a scene <default>: name=value")->allow_extra_args(false);
   try {
     app.parse(argc, argv);

@@ -25,6 +25,7 @@
 #include "luz/bsdf/conductor.h"
 #include "luz/bsdf/dielectric.h"
 #include "luz/bsdf/diffuse.h"
+#include "luz/bsdf/gltf_pbr.h"
 #include "luz/bsdf/phong.h"
 #include "luz/bsdf/plastic.h"
 #include "luz/bsdf/roughplastic.h"
@@ -51,9 +52,11 @@ enum class BsdfType : uint32_t {
   SmoothPlastic,
   BlinnPhong,
   Ward,
-  RoughPlastic,  // the last: kBsdfTypeCount follows it
+  RoughPlastic,
+  GltfPbr,
+  GltfPbrTransmission,  // the last: kBsdfTypeCount follows it
 };
-constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::RoughPlastic) + 1;
+constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::GltfPbrTransmission) + 1;
 
 // One BSDF model: a tag and the model's parameters in a union (every model
 // is a small trivially copyable struct).
@@ -75,6 +78,8 @@ struct BsdfComponent {
     BlinnPhongBsdf blinn_phong;
     WardBsdf ward;
     RoughPlasticBsdf rough_plastic;
+    GltfPbrBsdf gltf_pbr;
+    GltfPbrTransmissionBsdf gltf_pbr_transmission;
   };
 
   // The models' members have default initialisers, so the union needs a
@@ -98,6 +103,8 @@ LUZ_FORCE_INLINE decltype(auto) visit(C& c, F&& f) {
     case BsdfType::SmoothPlastic: return f(c.smooth_plastic);
     case BsdfType::BlinnPhong: return f(c.blinn_phong);
     case BsdfType::Ward: return f(c.ward);
+    case BsdfType::GltfPbr: return f(c.gltf_pbr);
+    case BsdfType::GltfPbrTransmission: return f(c.gltf_pbr_transmission);
     default: return f(c.rough_plastic);
   }
 }
@@ -394,6 +401,26 @@ struct Bsdf : BsdfComponent {
     b.type = BsdfType::Ward;
     b.two_sided = two_sided;
     b.ward = WardBsdf{v, kd, ks, alpha_u, alpha_v};
+    return b;
+  }
+  // glTF 2.0 metallic-roughness (gltf_pbr.h): baseColor, metallic,
+  // roughness, KHR_materials_ior's ior, doubleSided.
+  LUZ_INLINE static Bsdf make_gltf_pbr(Color base_color, float metallic, float roughness, float ior = 1.5f,
+                                       bool two_sided = false) {
+    Bsdf b;
+    b.type = BsdfType::GltfPbr;
+    b.two_sided = two_sided;
+    b.gltf_pbr = GltfPbrBsdf{base_color, metallic, roughness, GltfPbrBsdf::ior_to_f0(ior)};
+    return b;
+  }
+  // The same with KHR_materials_transmission's transmissionFactor (a thin
+  // sheet, two-sided by nature).
+  LUZ_INLINE static Bsdf make_gltf_pbr_transmission(Color base_color, float metallic, float roughness,
+                                                    float transmission, float ior = 1.5f) {
+    Bsdf b;
+    b.type = BsdfType::GltfPbrTransmission;
+    b.gltf_pbr_transmission.surface = make_gltf_pbr(base_color, metallic, roughness, ior).gltf_pbr;
+    b.gltf_pbr_transmission.transmission = transmission;
     return b;
   }
   // Mitsuba `blendbsdf`: (1 - weight) a + weight b. a and b must not be blends

@@ -23,6 +23,10 @@ enum class BsdfParam : uint8_t {
   AlphaU,
   AlphaV,
   Exponent,
+  BaseColor,  // glTF metallic-roughness (gltf_pbr.h)
+  Metallic,
+  Roughness,
+  Transmission,  // KHR_materials_transmission
 };
 
 // What is transported along the path: radiance (camera paths, the path

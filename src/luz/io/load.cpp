@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "luz/io/error.h"
+#include "luz/io/gltf.h"
 
 namespace luz {
 
@@ -25,7 +26,8 @@ Scene load_scene(const std::string& path, const Defines& defines) {
   if (e == ".obj") return load_obj_scene(path);
   if (e == ".ply") return load_ply_scene(path);
   if (e == ".pbrt") return load_pbrt(path);
-  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj, .ply, .pbrt)");
+  if (e == ".gltf" || e == ".glb") return load_gltf(path);
+  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .pbrt, .gltf, .glb, .obj, .ply)");
 }
 
 }  // namespace luz

@@ -12,7 +12,7 @@ namespace luz {
 
 using Defines = std::map<std::string, std::string>;
 
-// By extension: .xml (Mitsuba), .obj (OBJ/MTL), .ply, .pbrt (pbrt-v4).
+// By extension: .xml (Mitsuba), .pbrt (pbrt-v4), .gltf and .glb (glTF 2.0: io/gltf.h), .obj (OBJ/MTL), .ply.
 Scene load_scene(const std::string& path, const Defines& defines = {});
 Scene load_mitsuba(const std::string& path, const Defines& defines = {});
 // A mesh file as a scene (mesh_scene.cpp).

@@ -34,6 +34,9 @@ struct Material {
   // opacity_texture >= 0, else the constant. 1: opaque, no test.
   float opacity = 1.f;
   int32_t opacity_texture = -1;
+  // glTF's alphaMode MASK: the texture's value a becomes opacity 1 where
+  // a >= alpha_cutoff, else 0. Negative: none (a is the opacity itself).
+  float alpha_cutoff = -1.f;
 
   LUZ_INLINE bool masked() const { return opacity_texture >= 0 || opacity < 1.f; }
 

@@ -45,7 +45,8 @@ struct OpacityView {
     const Material& m =
         materials[hit.kind == PrimKind::Triangle ? tri_material[hit.prim] : spheres[hit.prim].material];
     if (m.opacity_texture < 0) return m.opacity;
-    return luminance(textures.eval(uint32_t(m.opacity_texture), hit_uv(uvs, indices, hit)));
+    const float a = luminance(textures.eval(uint32_t(m.opacity_texture), hit_uv(uvs, indices, hit)));
+    return m.alpha_cutoff < 0.f ? a : (a >= m.alpha_cutoff ? 1.f : 0.f);
   }
 
   // Does the hit of the ray (o, d) on this primitive exist?

@@ -125,6 +125,56 @@ int32_t SceneBuilder::add_checkerboard(const SourceLoc& at, Color color0, Color 
   return push_texture_stats(index, {(color0 + color1) * 0.5f, vmin(color0, color1), vmax(color0, color1)});
 }
 
+TextureStats SceneBuilder::bitmap_stats(const Texture& t) const {
+  TextureView v;
+  v.texels8 = scene_.texels8.data();
+  v.texelsf = scene_.texelsf.data();
+  v.srgb_table = scene_.srgb_table.data();
+  TextureStats stats;
+  double sum[3] = {0, 0, 0};
+  stats.min = {INFINITY, INFINITY, INFINITY};
+  stats.max = {0.f, 0.f, 0.f};
+  const uint32_t n = t.bitmap.width * t.bitmap.height;
+  for (uint32_t k = 0; k < n; ++k) {
+    const Color c = t.scale * v.texel(t.bitmap, k);
+    for (int j = 0; j < 3; ++j) sum[j] += c[j];
+    stats.min = vmin(stats.min, c);
+    stats.max = vmax(stats.max, c);
+  }
+  for (int j = 0; j < 3; ++j) stats.mean[j] = float(sum[j] / double(n));
+  return stats;
+}
+
+int32_t SceneBuilder::add_image8(const SourceLoc& at, BitmapTexture bm, const UvTransform& to_uv,
+                                 const std::vector<uint32_t>& rgba) {
+  if (bm.width == 0 || bm.height == 0 || size_t(bm.width) * bm.height != rgba.size())
+    error(at, "an image's size does not match its texels");
+  int32_t index = -1;
+  try {
+    index = int32_t(scene_.add_bitmap(bm, to_uv, rgba));
+  } catch (const std::length_error& e) {
+    error(at, e.what());
+  }
+  return push_texture_stats(index, bitmap_stats(scene_.textures[size_t(index)]));
+}
+
+int32_t SceneBuilder::add_texture(const SourceLoc& at, const Texture& t) {
+  if (!is_finite(t.scale) || !(t.scale.x >= 0.f && t.scale.y >= 0.f && t.scale.z >= 0.f))
+    error(at, "a texture's scale must be finite and not negative");
+  if (t.type != TextureType::Bitmap) error(at, "add_texture takes bitmaps");
+  const BitmapTexture& b = t.bitmap;
+  const size_t texels = size_t(b.width) * b.height;
+  const size_t stored = b.is_float ? scene_.texelsf.size() / 3 : scene_.texels8.size();
+  if (texels == 0 || b.offset > stored || texels > stored - b.offset) error(at, "a texture's texels lie outside the scene's");
+  int32_t index = -1;
+  try {
+    index = int32_t(scene_.add_texture(t));
+  } catch (const std::length_error& e) {
+    error(at, e.what());
+  }
+  return push_texture_stats(index, bitmap_stats(t));
+}
+
 // ---- materials ----
 
 uint32_t SceneBuilder::add_material(const SourceLoc& at, const MaterialDesc& d) {
@@ -138,12 +188,14 @@ uint32_t SceneBuilder::add_material(const SourceLoc& at, const MaterialDesc& d) 
   check(d.bump_map, "the bump map");
   if (!(d.opacity >= 0.f && d.opacity <= 1.f)) error(at, "opacity must lie in [0, 1]");
   if (!std::isfinite(d.bump_scale)) error(at, "the bump scale is not finite");
+  if (!(d.alpha_cutoff <= 1.f)) error(at, "the alpha cutoff must be at most 1 (negative: none)");
   if (scene_.materials.size() >= size_t(UINT32_MAX)) error(at, "more than 2^32 - 1 materials");
   const uint32_t m = scene_.add_material(d.bsdf, d.bindings, d.opacity, d.opacity_texture);
   Material& mat = scene_.materials[m];
   mat.normal_map = d.normal_map;
   mat.bump_map = d.bump_map;
   mat.bump_scale = d.bump_scale;
+  mat.alpha_cutoff = d.alpha_cutoff;
   return m;
 }
 
@@ -158,6 +210,7 @@ MaterialDesc SceneBuilder::material(uint32_t index) const {
   d.normal_map = m.normal_map;
   d.bump_map = m.bump_map;
   d.bump_scale = m.bump_scale;
+  d.alpha_cutoff = m.alpha_cutoff;
   return d;
 }
 

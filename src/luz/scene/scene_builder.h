@@ -47,6 +47,7 @@ struct MaterialDesc {
   int32_t opacity_texture = -1;
   int32_t normal_map = -1, bump_map = -1;
   float bump_scale = 1.f;
+  float alpha_cutoff = -1.f;  // Material::alpha_cutoff (glTF's alphaMode MASK)
   bool masked() const { return opacity_texture >= 0 || opacity < 1.f; }
   bool has_map() const { return normal_map >= 0 || bump_map >= 0; }
   // Whether the material needs texture coordinates.
@@ -84,6 +85,13 @@ class SceneBuilder {
   // request returns the same index. Texels must be finite and not negative.
   int32_t add_image_texture(const SourceLoc& at, const ImageTextureDesc& desc);
   int32_t add_checkerboard(const SourceLoc& at, Color color0, Color color1, const UvTransform& to_uv);
+  // An 8-bit image already in memory (glTF's embedded and binary-chunk
+  // images): packed RGBA texels, rows top to bottom.
+  int32_t add_image8(const SourceLoc& at, BitmapTexture bitmap, const UvTransform& to_uv,
+                     const std::vector<uint32_t>& rgba);
+  // Another view of texels already added (a channel, a scale, other lookup
+  // settings: texture.h), e.g. a copy of an earlier texture changed.
+  int32_t add_texture(const SourceLoc& at, const Texture& texture);
   const TextureStats& texture_stats(int32_t texture) const { return texture_stats_.at(size_t(texture)); }
 
   // ---- materials ----
@@ -133,6 +141,7 @@ class SceneBuilder {
   void check_shape_material(const SourceLoc& at, uint32_t material, const AreaEmission* emission,
                             bool has_uvs, const char* what) const;
   int32_t push_texture_stats(int32_t index, const TextureStats& stats);
+  TextureStats bitmap_stats(const Texture& texture) const;
 
   struct Object {
     std::string name;

@@ -35,6 +35,8 @@ const char* bsdf_name(BsdfType t) {
     case BsdfType::BlinnPhong: return "blinnphong";
     case BsdfType::Ward: return "ward";
     case BsdfType::RoughPlastic: return "roughplastic";
+    case BsdfType::GltfPbr: return "gltf metallic-roughness";
+    case BsdfType::GltfPbrTransmission: return "gltf metallic-roughness transmission";
   }
   return "?";
 }

@@ -20,6 +20,11 @@ namespace luz {
 
 enum class TextureFilter : uint32_t { Bilinear, Nearest };
 enum class WrapMode : uint32_t { Repeat, Mirror, Clamp };
+// What a bitmap's texel reads: its RGB, or one channel as a grey (R, G, B
+// decoded as the bitmap says; A always linear, 1 for float bitmaps). glTF
+// packs parameters in channels (metallic-roughness: roughness in G, metallic
+// in B; opacity in the base colour's A); a grey's luminance is that channel.
+enum class TextureChannel : uint32_t { Rgb, R, G, B, A };
 
 // uv' = (a u + b v + c, d u + e v + f).
 struct UvTransform {
@@ -38,6 +43,7 @@ struct BitmapTexture {
   // linear values · 255.
   bool is_float = false;
   bool srgb = true;
+  TextureChannel channel = TextureChannel::Rgb;
 };
 
 // Mitsuba's `checkerboard`: color0 where exactly one of frac(u), frac(v)
@@ -51,6 +57,7 @@ enum class TextureType : uint32_t { Bitmap, Checkerboard };
 struct Texture {
   TextureType type = TextureType::Bitmap;
   UvTransform to_uv;
+  Color scale{1.f, 1.f, 1.f};  // multiplies every value (glTF's factors times their textures)
   union {
     BitmapTexture bitmap;
     CheckerboardTexture checkerboard;
@@ -79,6 +86,13 @@ LUZ_INLINE Color texel_color(uint32_t t, bool srgb, const float* srgb_table) {
   if (srgb) return {srgb_table[r], srgb_table[g], srgb_table[b]};
   const float s = 1.f / 255.f;
   return {float(r) * s, float(g) * s, float(b) * s};
+}
+
+// One channel (not Rgb) of an 8-bit texel, as a grey.
+LUZ_INLINE Color texel_channel(uint32_t t, TextureChannel c, bool srgb, const float* srgb_table) {
+  const uint32_t k = uint32_t(c) - 1u, v = (t >> (8u * k)) & 255u;
+  const float x = srgb && c != TextureChannel::A ? srgb_table[v] : float(v) * (1.f / 255.f);
+  return {x, x, x};
 }
 
 // A coordinate brought to where the wrap mode keeps texel indices small:
@@ -142,8 +156,14 @@ struct TextureView {
   LUZ_INLINE Color texel(const BitmapTexture& tex, uint32_t k) const {
     if (tex.is_float) {
       const float* p = texelsf + 3 * (size_t(tex.offset) + k);
+      if (__builtin_expect(tex.channel != TextureChannel::Rgb, 0)) {
+        const float x = tex.channel == TextureChannel::A ? 1.f : p[uint32_t(tex.channel) - 1u];
+        return {x, x, x};
+      }
       return {p[0], p[1], p[2]};
     }
+    if (__builtin_expect(tex.channel != TextureChannel::Rgb, 0))
+      return texel_channel(texels8[tex.offset + k], tex.channel, tex.srgb, srgb_table);
     return texel_color(texels8[tex.offset + k], tex.srgb, srgb_table);
   }
 
@@ -164,9 +184,9 @@ struct TextureView {
     const Vec2 st = tex.to_uv.apply(uv);
     if (tex.type == TextureType::Checkerboard) {
       const bool a = st.x - floorf(st.x) > 0.5f, b = st.y - floorf(st.y) > 0.5f;
-      return a != b ? tex.checkerboard.color0 : tex.checkerboard.color1;
+      return tex.scale * (a != b ? tex.checkerboard.color0 : tex.checkerboard.color1);
     }
-    return bitmap(tex.bitmap, st);
+    return tex.scale * bitmap(tex.bitmap, st);
   }
 
   // The gradient (d/du, d/dv) of texture t's luminance at uv, the bilinear
@@ -181,8 +201,9 @@ struct TextureView {
     const BitmapTexture& bm = tex.bitmap;
     const BilinearTaps b = bilinear_taps(bm, tex.to_uv.apply(uv));
     const uint32_t w = bm.width;
-    const float f00 = luminance(texel(bm, b.j0 * w + b.i0)), f10 = luminance(texel(bm, b.j0 * w + b.i1));
-    const float f01 = luminance(texel(bm, b.j1 * w + b.i0)), f11 = luminance(texel(bm, b.j1 * w + b.i1));
+    const Color s = tex.scale;
+    const float f00 = luminance(s * texel(bm, b.j0 * w + b.i0)), f10 = luminance(s * texel(bm, b.j0 * w + b.i1));
+    const float f01 = luminance(s * texel(bm, b.j1 * w + b.i0)), f11 = luminance(s * texel(bm, b.j1 * w + b.i1));
     // Per unit of the image's own coordinates (texel units times the size);
     // a clamped coordinate outside [0, 1] reads a constant: no gradient there.
     const UvTransform& m = tex.to_uv;

@@ -1,0 +1,197 @@
+// glTF 2.0 metallic-roughness material: the reference BRDF of the glTF 2.0
+// specification (Khronos, Appendix B "BRDF Implementation", §B.3), with
+// KHR_materials_ior's dielectric F0:
+//
+//   specular_brdf(α) = D(h) V(wo, wi, h),  α = roughness²
+//   D   GGX (Trowbridge-Reitz), isotropic (microfacet.h)
+//   V   = G / (4 |n·wo| |n·wi|), G = G1(wo, h) G1(wi, h): the separable Smith
+//       form the specification's equations give (§B.3.2), not the
+//       height-correlated G2 of Luz's other microfacet models
+//   w   = (1 - |wo·h|)⁵  (Schlick)
+//   metal      = specular_brdf · (base + (1 - base) w)
+//   dielectric = mix(base / π, specular_brdf, f0 + (1 - f0) w),
+//                f0 = ((ior - 1) / (ior + 1))² (0.04 for ior 1.5, the core default)
+//   f = mix(dielectric, metal, metallic)
+//
+// Reciprocal (|wo·h| = |wi·h|). Not energy conserving in general, as the
+// specification says of its approximations: near grazing incidence the
+// diffuse part is weighted by 1 - F at the half vectors of diffuse
+// directions, while the specular part already took F at the grazing one
+// (white dielectric: directional albedo > 1 past ~60°, tests/test_bsdf_models).
+//
+// KHR_materials_transmission (GltfPbrTransmissionBsdf below): the
+// extension's thin-walled model (no KHR_materials_volume: two surfaces back
+// to back, no macroscopic refraction), the dielectric's base becoming
+//   mix(base / π, specular_btdf · base, transmission),
+//   specular_btdf(wo, wi) = specular_brdf(wo, wi mirrored through the surface),
+// i.e. the extension's H_T = normalize(wo + wi - 2 (n·wi) n) with the same D
+// and separable V; the Fresnel weight of a transmitted pair is taken at H_T.
+// The sheet looks the same from either side, and with η = 1 on both sides
+// it is reciprocal in both transport modes.
+//
+// Sampling: GGX visible normals from wo (wi = reflect(wo, m)) with
+// probability P_s, cosine-weighted otherwise, P_s from a Schlick estimate at wo:
+//   s = (1 - metallic) F(cos θo) + metallic,  d = (1 - metallic) (1 - F(cos θo)) mean(base),
+//   P_s = max(s, 0.01) / (max(s, 0.01) + d)
+// (P_s = 1 exactly when the diffuse lobe is zero, so pdf > 0 wherever f > 0).
+// pdf() is the mixture's solid-angle density; sample() returns f cos / pdf.
+//
+// Scene-file names (glTF's): baseColorFactor/Texture -> base_color,
+// metallicFactor (B channel) -> metallic, roughnessFactor (G channel) ->
+// roughness. One-sided: the Bsdf wrapper handles doubleSided.
+#pragma once
+
+#include "luz/bsdf/common.h"
+#include "luz/bsdf/microfacet.h"
+#include "luz/sampling/warp.h"
+
+namespace luz {
+
+struct GltfPbrBsdf {
+  static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) { return p == BsdfParam::BaseColor ? &base_color : nullptr; }
+  LUZ_INLINE float* float_param(BsdfParam p) {
+    return p == BsdfParam::Metallic ? &metallic : p == BsdfParam::Roughness ? &roughness : nullptr;
+  }
+  // glTF's defaults.
+  Color base_color{1.f, 1.f, 1.f};
+  float metallic = 1.f, roughness = 1.f;
+  float f0 = 0.04f;  // dielectric reflectance at normal incidence
+
+  LUZ_INLINE static float ior_to_f0(float ior) {
+    float r = (ior - 1.f) / (ior + 1.f);
+    return r * r;
+  }
+  LUZ_INLINE static float schlick_weight(float c) {
+    float x = 1.f - clamp(c, 0.f, 1.f), x2 = x * x;
+    return x2 * x2 * x;
+  }
+  LUZ_INLINE float metal() const { return clamp(metallic, 0.f, 1.f); }
+  LUZ_INLINE MicrofacetDistribution dist() const {
+    float r = clamp(roughness, 0.f, 1.f);
+    return MicrofacetDistribution::make(MicrofacetType::GGX, r * r, r * r);
+  }
+
+  // specular_brdf(wo, wi) = D V.
+  LUZ_INLINE float specular(Vec3 wo, Vec3 wi, Vec3 h) const {
+    const MicrofacetDistribution d = dist();
+    return d.D(h) * d.G1(wo, h) * d.G1(wi, h) / (4.f * wo.z * wi.z);
+  }
+  LUZ_INLINE Color f(Vec3 wo, Vec3 wi) const { return reflection(wo, wi, 1.f); }
+  // f with the diffuse part scaled by `diffuse` (1 - transmission).
+  LUZ_INLINE Color reflection(Vec3 wo, Vec3 wi, float diffuse) const {
+    if (!(wo.z > 0.f) || !(wi.z > 0.f)) return {};
+    const Vec3 h = normalize(wo + wi);
+    const float spec = specular(wo, wi, h);
+    const float w = schlick_weight(fabsf(dot(wo, h))), m = metal();
+    const float fd = f0 + (1.f - f0) * w;
+    const Color one{1.f, 1.f, 1.f};
+    const Color dielectric = base_color * ((1.f - fd) * diffuse * kInvPi) + one * (fd * spec);
+    const Color metal_f = (base_color + (one - base_color) * w) * spec;
+    return dielectric * (1.f - m) + metal_f * m;
+  }
+
+  LUZ_INLINE float specular_probability(float cos_o) const {
+    const float m = metal(), fd = f0 + (1.f - f0) * schlick_weight(cos_o);
+    const float s = max((1.f - m) * fd + m, 0.01f);
+    const float mean = (base_color.x + base_color.y + base_color.z) * (1.f / 3.f);
+    const float d = (1.f - m) * (1.f - fd) * max(mean, 0.f);
+    return s / (s + d);
+  }
+  LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
+    if (!(wo.z > 0.f) || !(wi.z > 0.f)) return 0.f;
+    const float ps = specular_probability(wo.z);
+    const Vec3 h = normalize(wo + wi);
+    const float woh = dot(wo, h);
+    const float spec = woh > 0.f ? dist().pdf_visible(wo, h) / (4.f * woh) : 0.f;
+    return ps * spec + (1.f - ps) * cosine_hemisphere_pdf(wi);
+  }
+  LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2) const {
+    if (!(wo.z > 0.f)) return {};
+    const float ps = specular_probability(wo.z);
+    const MicrofacetDistribution d = dist();
+    return sample_facet_or_cosine(*this, wo, u1 < ps, u2, [&](Vec2 u) { return d.sample_visible_ggx(wo, u); });
+  }
+};
+
+// glTF metallic-roughness with KHR_materials_transmission (see the top): a
+// thin sheet, the same from both sides. f for wi across the surface is
+//   (1 - metallic) (1 - F(|wo·h_t|)) transmission · base · specular_brdf(wo, w̄i),
+// w̄i = wi mirrored through the surface, h_t = normalize(wo + w̄i); on wo's side
+// it is GltfPbrBsdf's f with the diffuse part scaled by 1 - transmission.
+// Sampling: the specular lobe with P_s as GltfPbrBsdf, else the base lobes in
+// the ratio (1 - transmission) : transmission, the transmitted one as the
+// specular lobe's sample mirrored.
+struct GltfPbrTransmissionBsdf {
+  static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = true;
+  LUZ_INLINE Color* color_param(BsdfParam p) { return surface.color_param(p); }
+  LUZ_INLINE float* float_param(BsdfParam p) {
+    return p == BsdfParam::Transmission ? &transmission : surface.float_param(p);
+  }
+  GltfPbrBsdf surface;
+  float transmission = 0.f;
+
+  LUZ_INLINE float share() const { return clamp(transmission, 0.f, 1.f); }
+  LUZ_INLINE static Vec3 mirror(Vec3 w) { return {w.x, w.y, -w.z}; }
+
+  // Both directions brought to the upper side (the sheet is symmetric).
+  LUZ_INLINE static bool upper(Vec3& wo, Vec3& wi) {
+    if (wo.z < 0.f) wo = mirror(wo), wi = mirror(wi);
+    return wo.z > 0.f && wi.z != 0.f;
+  }
+  LUZ_INLINE Color f(Vec3 wo, Vec3 wi, TransportMode) const {
+    if (!upper(wo, wi)) return {};
+    const float t = share();
+    if (wi.z > 0.f) return surface.reflection(wo, wi, 1.f - t);
+    const Vec3 wm = mirror(wi);
+    const Vec3 h = normalize(wo + wm);
+    const float spec = surface.specular(wo, wm, h);
+    const float fd = surface.f0 + (1.f - surface.f0) * GltfPbrBsdf::schlick_weight(fabsf(dot(wo, h)));
+    return surface.base_color * ((1.f - surface.metal()) * (1.f - fd) * t * spec);
+  }
+  // Lobe probabilities at wo (upper side): specular, diffuse, transmitted.
+  LUZ_INLINE void lobes(float cos_o, float& ps, float& pd, float& pt) const {
+    ps = surface.specular_probability(cos_o);
+    const float t = share();
+    pd = (1.f - ps) * (1.f - t);
+    pt = (1.f - ps) * t;
+  }
+  LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
+    if (!upper(wo, wi)) return 0.f;
+    float ps, pd, pt;
+    lobes(wo.z, ps, pd, pt);
+    const bool across = wi.z < 0.f;
+    const Vec3 wr = across ? mirror(wi) : wi;
+    const Vec3 h = normalize(wo + wr);
+    const float woh = dot(wo, h);
+    const float spec = woh > 0.f ? surface.dist().pdf_visible(wo, h) / (4.f * woh) : 0.f;
+    return across ? pt * spec : ps * spec + pd * cosine_hemisphere_pdf(wi);
+  }
+  LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2, TransportMode mode) const {
+    BsdfSample s;
+    const bool below = wo.z < 0.f;
+    Vec3 w = below ? mirror(wo) : wo;
+    if (!(w.z > 0.f)) return s;
+    float ps, pd, pt;
+    lobes(w.z, ps, pd, pt);
+    if (u1 < ps + pt) {
+      const Vec3 h = surface.dist().sample_visible_ggx(w, u2);
+      if (!(dot(w, h) > 0.f)) return s;
+      s.wi = reflect(w, h);
+      if (!(s.wi.z > 0.f)) return s;
+      if (u1 >= ps) s.wi = mirror(s.wi);
+    } else {
+      s.wi = square_to_cosine_hemisphere(u2);
+    }
+    if (below) s.wi = mirror(s.wi);
+    s.pdf = pdf(wo, s.wi);
+    if (!(s.pdf > 0.f)) return s;
+    s.weight = f(wo, s.wi, mode) * (fabsf(s.wi.z) / s.pdf);
+    s.transmission = s.wi.z * wo.z < 0.f;
+    s.valid = true;
+    return s;
+  }
+};
+
+}  // namespace luz

@@ -1,0 +1,846 @@
+// glTF 2.0 loader (Khronos glTF 2.0 specification; tinygltf parses the JSON
+// or GLB container, decodes data URIs and images). Mapping onto Luz:
+//
+//  - Nodes: the default scene's node forest (matrix, or T·R·S), each mesh
+//    placed by its node's world transform; a mesh placed by several nodes is
+//    a SceneBuilder object with one instance per node (unless it emits, or
+//    the node mirrors: then copied). A negative determinant reverses the
+//    winding, as the specification says.
+//  - Primitives: TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN (converted to
+//    triangles as §3.7.2.1 lists them); POINTS and LINES* skipped with a
+//    warning. Indices of any type (or none). POSITION (float), NORMAL
+//    (float; absent: flat shading), TEXCOORD_n (float, or normalised
+//    unsigned byte or short): one set per primitive, the one its material's
+//    textures name (KHR_texture_transform's texCoord included); sparse
+//    accessors and morph targets are refused / ignored.
+//  - Materials: the metallic-roughness model (bsdf/gltf_pbr.h). Factors
+//    multiply their textures (Texture::scale); roughness is read from G and
+//    metallic from B of metallicRoughnessTexture (Texture::channel). Normal
+//    textures perturb the shading frame (Material::normal_map: the tangent
+//    along dp/du, bitangent n × t, which is glTF's convention for a mesh
+//    without TANGENT; normalTexture.scale and TANGENT are ignored with a
+//    warning when not 1 / present). occlusionTexture is ignored (the path
+//    tracer computes occlusion). doubleSided -> Bsdf::two_sided.
+//    KHR_materials_ior sets the dielectric f0; KHR_materials_transmission
+//    (factor, texture's R) makes it gltf_pbr.h's thin transmitting sheet
+//    (two-sided whatever doubleSided says; KHR_materials_volume ignored).
+//  - Emission: emissiveFactor × emissiveTexture × KHR_materials_emissive_strength
+//    is the radiance of the primitive's triangles as area lights (front side).
+//  - Alpha: OPAQUE ignores alpha; MASK makes the surface exist where
+//    alpha = baseColorFactor.a × texture.a >= alphaCutoff (Material::alpha_cutoff,
+//    the alpha test of material/opacity.h); BLEND uses alpha as a stochastic
+//    opacity (the same alpha test with a fractional opacity: a transparent
+//    surface, without the order-dependence of rasterised blending).
+//  - KHR_texture_transform: uv' = T(offset) R(rotation) S(scale) uv with
+//    R = [cos sin; -sin cos] (three.js's and Babylon.js's reading, which
+//    the extension's sample model TextureTransformTest checks).
+//  - Samplers: magFilter NEAREST -> nearest, else bilinear (no mipmaps);
+//    wrapS (wrapT when it differs: warning).
+//  - KHR_lights_punctual, photometric to Luz's radiometric units at
+//    683 lm/W (the luminous efficacy that defines the candela): point and
+//    spot intensity I [cd] -> color · I / 683 W/sr; directional illuminance
+//    E [lux] -> color · E / 683 W/m². Spot cones: inner -> Luz's beam width,
+//    outer -> cutoff (Luz's falloff is linear in angle between them, glTF's
+//    smooth in cosine); `range` is ignored (no cut-off).
+//  - No light at all (no emission, no punctual light): a uniform white
+//    environment of radiance 1 with a warning, as for OBJ and PLY files.
+//  - Camera: the first node with a camera in traversal order (perspective:
+//    yfov, aspectRatio; orthographic: xmag, ymag); none: the bounds framed
+//    as for an OBJ. The film is 512 pixels high (wide by the aspect ratio).
+//  - Images: 8 or 16 bits per channel (16 reduced to 8), RGBA.
+#include "luz/io/gltf.h"
+
+#include <tiny_gltf.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <set>
+#include <tuple>
+
+#include "luz/io/error.h"
+#include "luz/math/transform.h"
+#include "luz/scene/scene_builder.h"
+
+namespace luz {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Photometric to radiometric: lumens per watt at 555 nm (SI definition of the candela).
+constexpr double kLumensPerWatt = 683.0;
+
+std::string at(const char* what, size_t i) { return std::string(what) + "[" + std::to_string(i) + "]"; }
+
+// A JSON value read as an index: a whole number in [0, 2^31), else -1.
+int index_of(const tinygltf::Value& v) {
+  if (!v.IsNumber()) return -1;
+  const double d = v.GetNumberAsDouble();
+  return d >= 0.0 && d < 2147483648.0 && d == std::floor(d) ? int(d) : -1;
+}
+
+float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
+
+class GltfLoader {
+ public:
+  explicit GltfLoader(const std::string& path) : path_(path), builder_(path) {}
+
+  Scene load() {
+    read_model();
+    check_extensions();
+    const std::vector<int> roots = root_nodes();
+    walk(roots);
+    // Area lights come first in Scene::lights (add_mesh numbers them), then the others.
+    for (const Light& l : punctual_) builder_.add_light(at_, l);
+    if (builder_.scene().lights.empty()) {  // as for mesh files (mesh_scene.cpp): the model shows
+      ConstantLight sky;
+      sky.radiance = {1.f, 1.f, 1.f};
+      builder_.add_light(at_, sky);
+      warn("no light in the file: lit by a uniform white environment (radiance 1)");
+    }
+    builder_.settings().spp = 64;
+    builder_.settings().integrator.max_depth = -1;
+    if (!builder_.has_camera()) builder_.frame_bounds(512, 512);
+    return builder_.finish();
+  }
+
+ private:
+  const std::string path_;
+  const SourceLoc at_{path_, 0};  // glTF has no useful line numbers: messages name the object instead
+  tinygltf::Model model_;
+  SceneBuilder builder_;
+  std::vector<Light> punctual_;  // KHR_lights_punctual, added after the meshes' area lights
+  std::set<std::string> warned_;
+  // Per glTF material: the Luz material, its emission, and its texture-coordinate set.
+  struct MaterialInfo {
+    uint32_t index = 0;
+    bool emissive = false;
+    Color emission;
+    int32_t emission_texture = -1;
+    int uv_set = -1;  // -1: no texture
+  };
+  std::map<int, MaterialInfo> materials_;
+  std::map<int, int32_t> image_texture_;  // image -> its texels' first Luz texture
+  std::vector<int> uses_;                  // per mesh: how many nodes place it
+  std::map<int, int32_t> objects_;         // mesh -> its SceneBuilder object (-1: flattened)
+
+  [[noreturn]] void fail(const std::string& where, const std::string& problem) const {
+    builder_.error(at_, where.empty() ? problem : where + ": " + problem);
+  }
+  void warn(const std::string& msg) {
+    if (warned_.insert(msg).second) builder_.warn(at_, msg);
+  }
+
+  void read_model() {
+    tinygltf::TinyGLTF reader;
+    std::string err, warn_text;
+    std::string ext = fs::path(path_).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    bool ok = false;
+    try {
+      ok = ext == ".glb" ? reader.LoadBinaryFromFile(&model_, &err, &warn_text, path_)
+                         : reader.LoadASCIIFromFile(&model_, &err, &warn_text, path_);
+    } catch (const std::exception& e) {
+      fail("", std::string("cannot parse: ") + e.what());
+    }
+    if (!ok) {
+      std::string first = err.substr(0, err.find('\n'));
+      if (first.empty()) first = "not a valid glTF file";
+      fail("", first);
+    }
+  }
+
+  void check_extensions() {
+    static const std::set<std::string> supported = {
+        "KHR_texture_transform", "KHR_materials_emissive_strength", "KHR_lights_punctual", "KHR_materials_ior",
+        "KHR_mesh_quantization", "KHR_materials_transmission"};
+    for (const std::string& e : model_.extensionsRequired)
+      if (!supported.count(e)) fail("", "requires extension " + e + ", which Luz does not support");
+  }
+
+  std::vector<int> root_nodes() {
+    if (!model_.scenes.empty()) {
+      const size_t s = model_.defaultScene >= 0 ? size_t(model_.defaultScene) : 0;
+      if (s >= model_.scenes.size()) fail("scene", "no scene " + std::to_string(s));
+      return model_.scenes[s].nodes;
+    }
+    // No scenes: every node that is nobody's child.
+    std::vector<bool> child(model_.nodes.size(), false);
+    for (const tinygltf::Node& n : model_.nodes)
+      for (int c : n.children)
+        if (c >= 0 && size_t(c) < child.size()) child[size_t(c)] = true;
+    std::vector<int> r;
+    for (size_t i = 0; i < child.size(); ++i)
+      if (!child[i]) r.push_back(int(i));
+    return r;
+  }
+
+  Matrix4 local_transform(const tinygltf::Node& n, const std::string& where) {
+    Matrix4 m;
+    auto finite = [&](const std::vector<double>& v, size_t len, const char* what) {
+      if (!v.empty() && v.size() != len) fail(where, std::string(what) + " needs " + std::to_string(len) + " numbers");
+      for (double x : v)
+        if (!std::isfinite(x) || std::fabs(x) > 1e18) fail(where, std::string(what) + " has a non-finite or huge number");
+    };
+    finite(n.matrix, 16, "matrix");
+    finite(n.translation, 3, "translation");
+    finite(n.rotation, 4, "rotation");
+    finite(n.scale, 3, "scale");
+    if (!n.matrix.empty()) {
+      for (int c = 0; c < 4; ++c)
+        for (int r = 0; r < 4; ++r) m.m[r][c] = n.matrix[size_t(4 * c + r)];  // column-major
+      return m;
+    }
+    Matrix4 t, r, s;
+    if (!n.translation.empty()) t = Matrix4::translate({float(n.translation[0]), float(n.translation[1]), float(n.translation[2])});
+    if (!n.scale.empty()) {
+      for (int k = 0; k < 3; ++k) s.m[k][k] = n.scale[size_t(k)];
+    }
+    if (!n.rotation.empty()) {
+      double x = n.rotation[0], y = n.rotation[1], z = n.rotation[2], w = n.rotation[3];
+      const double len = std::sqrt(x * x + y * y + z * z + w * w);
+      if (!(len > 0.0)) fail(where, "rotation is a zero quaternion");
+      x /= len, y /= len, z /= len, w /= len;
+      r.m[0][0] = 1 - 2 * (y * y + z * z), r.m[0][1] = 2 * (x * y - z * w), r.m[0][2] = 2 * (x * z + y * w);
+      r.m[1][0] = 2 * (x * y + z * w), r.m[1][1] = 1 - 2 * (x * x + z * z), r.m[1][2] = 2 * (y * z - x * w);
+      r.m[2][0] = 2 * (x * z - y * w), r.m[2][1] = 2 * (y * z + x * w), r.m[2][2] = 1 - 2 * (x * x + y * y);
+    }
+    return t * r * s;
+  }
+
+  // Depth-first over the node forest with an explicit stack; a node reached
+  // twice (a cycle, or shared by two parents) is an error.
+  void walk(const std::vector<int>& roots) {
+    std::vector<bool> seen(model_.nodes.size(), false);
+    uses_.assign(model_.meshes.size(), 0);
+    for (const tinygltf::Node& n : model_.nodes)
+      if (n.mesh >= 0 && size_t(n.mesh) < uses_.size()) ++uses_[size_t(n.mesh)];
+    std::vector<std::pair<int, Matrix4>> stack;
+    for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.push_back({*it, Matrix4{}});
+    while (!stack.empty()) {
+      auto [i, parent] = stack.back();
+      stack.pop_back();
+      if (i < 0 || size_t(i) >= model_.nodes.size()) fail("nodes", "no node " + std::to_string(i));
+      if (seen[size_t(i)]) fail(at("nodes", size_t(i)), "the node is reached twice (a cycle or two parents)");
+      seen[size_t(i)] = true;
+      const tinygltf::Node& n = model_.nodes[size_t(i)];
+      const std::string where = at("nodes", size_t(i));
+      const Matrix4 world = parent * local_transform(n, where);
+      if (n.mesh >= 0) add_mesh(n.mesh, world);
+      if (n.camera >= 0 && !builder_.has_camera()) set_camera(n.camera, world, where);
+      auto l = n.extensions.find("KHR_lights_punctual");
+      if (l != n.extensions.end() && l->second.Has("light")) add_light(l->second.Get("light"), world, where);
+      for (auto c = n.children.rbegin(); c != n.children.rend(); ++c) stack.push_back({*c, world});
+    }
+  }
+
+  // ---- accessors ----
+  struct Data {
+    const unsigned char* base = nullptr;
+    size_t count = 0, stride = 0;
+    int components = 0, component_type = 0;
+    bool normalized = false;
+  };
+
+  Data accessor(int index, const std::string& where) {
+    if (index < 0 || size_t(index) >= model_.accessors.size()) fail(where, "no accessor " + std::to_string(index));
+    const tinygltf::Accessor& a = model_.accessors[size_t(index)];
+    const std::string aw = at("accessors", size_t(index));
+    if (a.sparse.isSparse) fail(aw, "sparse accessors are not supported");
+    if (a.bufferView < 0 || size_t(a.bufferView) >= model_.bufferViews.size())
+      fail(aw, "no bufferView (accessors of zeros are not supported)");
+    const tinygltf::BufferView& v = model_.bufferViews[size_t(a.bufferView)];
+    if (v.buffer < 0 || size_t(v.buffer) >= model_.buffers.size()) fail(at("bufferViews", size_t(a.bufferView)), "no buffer");
+    const std::vector<unsigned char>& buf = model_.buffers[size_t(v.buffer)].data;
+    if (v.byteOffset > buf.size() || v.byteLength > buf.size() - v.byteOffset)
+      fail(at("bufferViews", size_t(a.bufferView)), "lies beyond its buffer's " + std::to_string(buf.size()) + " bytes");
+    Data d;
+    d.components = tinygltf::GetNumComponentsInType(uint32_t(a.type));
+    const int size = tinygltf::GetComponentSizeInBytes(uint32_t(a.componentType));
+    if (d.components <= 0 || size <= 0) fail(aw, "unknown type or componentType");
+    d.component_type = a.componentType;
+    d.normalized = a.normalized;
+    d.count = a.count;
+    const size_t elem = size_t(d.components) * size_t(size);
+    d.stride = v.byteStride ? v.byteStride : elem;
+    if (d.stride < elem) fail(aw, "byteStride is smaller than an element");
+    if (a.byteOffset > v.byteLength) fail(aw, "byteOffset lies beyond its bufferView");
+    const size_t room = v.byteLength - a.byteOffset;
+    if (d.count > 0 && (room < elem || (d.count - 1) > (room - elem) / d.stride))
+      fail(aw, std::to_string(d.count) + " elements do not fit in the bufferView's " + std::to_string(v.byteLength) + " bytes");
+    d.base = buf.data() + v.byteOffset + a.byteOffset;
+    return d;
+  }
+
+  // Component c of element i as a number (normalised integers mapped to [0, 1]).
+  static double component(const Data& d, size_t i, int c) {
+    const unsigned char* p = d.base + i * d.stride;
+    switch (d.component_type) {
+      case TINYGLTF_COMPONENT_TYPE_FLOAT: {
+        float f;
+        std::memcpy(&f, p + 4 * c, 4);
+        return f;
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return p[c] * (d.normalized ? 1.0 / 255.0 : 1.0);
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t u;
+        std::memcpy(&u, p + 2 * c, 2);
+        return u * (d.normalized ? 1.0 / 65535.0 : 1.0);
+      }
+      case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: {
+        uint32_t u;
+        std::memcpy(&u, p + 4 * c, 4);
+        return u;
+      }
+      default: return 0.0;
+    }
+  }
+
+  Data attribute(const tinygltf::Primitive& p, const std::string& name, int components, bool allow_normalized,
+                 const std::string& where) {
+    Data d = accessor(p.attributes.at(name), where + ": " + name);
+    const bool is_float = d.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT;
+    const bool is_unorm = allow_normalized && d.normalized &&
+                          (d.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                           d.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+    if (d.components != components || !(is_float || is_unorm))
+      fail(where, name + " must be " + (components == 3 ? "VEC3" : "VEC2") + " of floats" +
+                      (allow_normalized ? " or normalised unsigned bytes or shorts" : ""));
+    return d;
+  }
+
+  // ---- meshes ----
+  // One triangle-mode primitive of a mesh, read and placed: where it came
+  // from, its material, its triangles.
+  struct Part {
+    SourceLoc at;
+    const MaterialInfo* material;
+    TriangleMesh mesh;
+  };
+
+  // A mesh placed by its node: a mesh that several nodes place is an object
+  // built once and instanced (SceneBuilder), unless it emits (emitters are
+  // not instanced) or the transform mirrors (glTF then reverses the winding;
+  // an instance keeps it); any other mesh is added as it is placed.
+  void add_mesh(int mesh, const Matrix4& world) {
+    if (size_t(mesh) >= model_.meshes.size()) fail("nodes", "no mesh " + std::to_string(mesh));
+    if (uses_[size_t(mesh)] > 1 && world.det3() > 0.0) {
+      auto it = objects_.find(mesh);
+      if (it == objects_.end()) {
+        std::vector<Part> parts = primitives(mesh, Matrix4{});
+        bool emits = false;
+        for (const Part& p : parts) emits |= p.material->emissive;
+        int32_t object = -1;
+        if (!emits) {
+          object = int32_t(builder_.begin_object(at_, at("meshes", size_t(mesh))));
+          for (Part& p : parts) builder_.add_object_mesh(p.at, uint32_t(object), std::move(p.mesh), p.material->index);
+        }
+        it = objects_.emplace(mesh, object).first;
+      }
+      if (it->second >= 0) {
+        builder_.add_instance(at_, uint32_t(it->second), world);
+        return;
+      }
+    }
+    for (Part& p : primitives(mesh, world)) {
+      const MaterialInfo& mat = *p.material;
+      if (mat.emission_texture >= 0) {
+        add_textured_emitter(p.at, std::move(p.mesh), mat);
+      } else {
+        const AreaEmission e{mat.emission, -1};
+        builder_.add_mesh(p.at, std::move(p.mesh), mat.index, mat.emissive ? &e : nullptr);
+      }
+    }
+  }
+
+  std::vector<Part> primitives(int mesh, const Matrix4& world) {
+    std::vector<Part> parts;
+    const tinygltf::Mesh& m = model_.meshes[size_t(mesh)];
+    const bool flip = world.det3() < 0.0;
+    for (size_t pi = 0; pi < m.primitives.size(); ++pi) {
+      const tinygltf::Primitive& p = m.primitives[pi];
+      const std::string where = at("meshes", size_t(mesh)) + "." + at("primitives", pi);
+      const int mode = p.mode < 0 ? TINYGLTF_MODE_TRIANGLES : p.mode;
+      if (mode == TINYGLTF_MODE_POINTS || mode == TINYGLTF_MODE_LINE || mode == TINYGLTF_MODE_LINE_LOOP ||
+          mode == TINYGLTF_MODE_LINE_STRIP) {
+        warn(where + ": points and lines are not rendered; skipped");
+        continue;
+      }
+      if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
+        fail(where, "unknown mode " + std::to_string(mode));
+      if (!p.attributes.count("POSITION")) fail(where, "no POSITION");
+      const Data pos = attribute(p, "POSITION", 3, false, where);
+      const size_t n = pos.count;
+      if (n > size_t(UINT32_MAX / 2)) fail(where, "too many vertices");
+      TriangleMesh mesh;  // positions, normals in world space (SceneBuilder checks them)
+      mesh.positions.resize(n);
+      for (size_t i = 0; i < n; ++i)
+        mesh.positions[i] = world.point({float(component(pos, i, 0)), float(component(pos, i, 1)), float(component(pos, i, 2))});
+      if (p.attributes.count("NORMAL")) {
+        const Data nd = attribute(p, "NORMAL", 3, false, where);
+        if (nd.count != n) fail(where, "NORMAL and POSITION differ in count");
+        mesh.normals.resize(n);
+        for (size_t i = 0; i < n; ++i)
+          mesh.normals[i] = world.normal({float(component(nd, i, 0)), float(component(nd, i, 1)), float(component(nd, i, 2))});
+      }
+      if (p.attributes.count("TANGENT")) warn(where + ": TANGENT is ignored (tangents follow dp/du)");
+      const MaterialInfo& mat = material(p.material);
+      std::vector<Vec2>& uvs = mesh.uvs;
+      if (mat.uv_set >= 0) {
+        const std::string name = "TEXCOORD_" + std::to_string(mat.uv_set);
+        if (!p.attributes.count(name)) fail(where, "its material's textures need " + name);
+        const Data t = attribute(p, name, 2, true, where);
+        if (t.count != n) fail(where, name + " and POSITION differ in count");
+        uvs.resize(n);
+        for (size_t i = 0; i < n; ++i) uvs[i] = {float(component(t, i, 0)), float(component(t, i, 1))};
+      }
+      std::vector<uint32_t> order;  // the vertex sequence the mode reads
+      if (p.indices >= 0) {
+        const Data id = accessor(p.indices, where + ": indices");
+        if (id.components != 1 || (id.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+                                   id.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+                                   id.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT))
+          fail(where, "indices must be SCALAR unsigned bytes, shorts or ints");
+        order.resize(id.count);
+        for (size_t i = 0; i < id.count; ++i) {
+          const double v = component(id, i, 0);
+          if (!(v < double(n))) fail(where, "index " + std::to_string(uint64_t(v)) + " is not below the " +
+                                                std::to_string(n) + " vertices");
+          order[i] = uint32_t(v);
+        }
+      } else {
+        order.resize(n);
+        for (size_t i = 0; i < n; ++i) order[i] = uint32_t(i);
+      }
+      std::vector<uint32_t>& tris = mesh.indices;
+      auto tri = [&](uint32_t a, uint32_t b, uint32_t c) {
+        if (flip) std::swap(b, c);
+        tris.insert(tris.end(), {a, b, c});
+      };
+      if (mode == TINYGLTF_MODE_TRIANGLES) {
+        for (size_t i = 0; i + 2 < order.size(); i += 3) tri(order[i], order[i + 1], order[i + 2]);
+      } else if (mode == TINYGLTF_MODE_TRIANGLE_STRIP) {
+        // §3.7.2.1: p_i = {v_i, v_{i+(1+i%2)}, v_{i+(2-i%2)}}.
+        for (size_t i = 0; i + 2 < order.size(); ++i)
+          tri(order[i], order[i + 1 + i % 2], order[i + 2 - i % 2]);
+      } else {
+        // p_i = {v_{i+1}, v_{i+2}, v_0}.
+        for (size_t i = 0; i + 2 < order.size(); ++i) tri(order[i + 1], order[i + 2], order[0]);
+      }
+      if (tris.empty()) continue;
+      parts.push_back({{path_ + ": " + where, 0}, &mat, std::move(mesh)});
+    }
+    return parts;
+  }
+
+  // A primitive with an emission texture: the triangles whose texels are all
+  // black are not lights; each other one is a light whose radiance (what
+  // light selection weighs it by; the texture gives the emission itself) is
+  // the mean of its texels.
+  // (Each lit triangle is a mesh of its own three vertices, for its own radiance.)
+  void add_textured_emitter(const SourceLoc& at, TriangleMesh mesh, const MaterialInfo& mat) {
+    const Texture tex = builder_.scene().textures[size_t(mat.emission_texture)];
+    std::vector<uint32_t> dark;
+    const std::vector<uint32_t>& tris = mesh.indices;
+    for (size_t k = 0; k < tris.size(); k += 3) {
+      AreaEmission e{mat.emission, mat.emission_texture};
+      float max = 1.f;
+      const uint32_t v[3] = {tris[k], tris[k + 1], tris[k + 2]};
+      footprint(tex, mesh.uvs[v[0]], mesh.uvs[v[1]], mesh.uvs[v[2]], e.radiance, max);
+      if (!(max > 0.f)) {
+        dark.insert(dark.end(), v, v + 3);
+        continue;
+      }
+      TriangleMesh one;
+      one.indices = {0, 1, 2};
+      for (uint32_t i : v) {
+        one.positions.push_back(mesh.positions[i]);
+        one.uvs.push_back(mesh.uvs[i]);
+        if (!mesh.normals.empty()) one.normals.push_back(mesh.normals[i]);
+      }
+      builder_.add_mesh(at, std::move(one), mat.index, &e);
+    }
+    if (dark.empty()) return;
+    mesh.indices = std::move(dark);
+    builder_.add_mesh(at, std::move(mesh), mat.index);
+  }
+
+  // The greatest luminance and the mean of the texels a lookup inside the uv
+  // triangle (a, b, c) can read: the texel box around the triangle grown by
+  // one texel (the bilinear filter's reach), wrapped as the texture wraps.
+  // Leaves mean and max as they are when the box exceeds 2^20 texels.
+  void footprint(const Texture& tex, Vec2 a, Vec2 b, Vec2 c, Color& mean, float& max) const {
+    const BitmapTexture& bm = tex.bitmap;
+    const Vec2 p[3] = {tex.to_uv.apply(a), tex.to_uv.apply(b), tex.to_uv.apply(c)};
+    double lo[2] = {1e300, 1e300}, hi[2] = {-1e300, -1e300};
+    const double size[2] = {double(bm.width), double(bm.height)};
+    for (const Vec2& q : p)
+      for (int d = 0; d < 2; ++d) {
+        const double x = double(d ? q.y : q.x) * size[d] - 0.5;
+        lo[d] = std::min(lo[d], x), hi[d] = std::max(hi[d], x);
+      }
+    const double x0 = std::floor(lo[0]), x1 = std::floor(hi[0]) + 1, y0 = std::floor(lo[1]), y1 = std::floor(hi[1]) + 1;
+    if (!((x1 - x0 + 1) * (y1 - y0 + 1) <= double(1 << 20))) return;
+    auto wrap = [&](int64_t i, int64_t n) {
+      if (bm.wrap == WrapMode::Clamp) return std::clamp<int64_t>(i, 0, n - 1);
+      if (bm.wrap == WrapMode::Mirror) {
+        const int64_t m = ((i % (2 * n)) + 2 * n) % (2 * n);
+        return m < n ? m : 2 * n - 1 - m;
+      }
+      return ((i % n) + n) % n;
+    };
+    const Scene& scene = builder_.scene();
+    TextureView v;
+    v.texels8 = scene.texels8.data();
+    v.texelsf = scene.texelsf.data();
+    v.srgb_table = scene.srgb_table.data();
+    double sum[3] = {0, 0, 0};
+    float m = 0.f;
+    for (int64_t y = int64_t(y0); y <= int64_t(y1); ++y)
+      for (int64_t x = int64_t(x0); x <= int64_t(x1); ++x) {
+        const Color t = tex.scale * v.texel(bm, uint32_t(wrap(y, bm.height) * bm.width + wrap(x, bm.width)));
+        m = std::max(m, std::max(t.x, std::max(t.y, t.z)));
+        for (int k = 0; k < 3; ++k) sum[k] += t[k];
+      }
+    const double n = (x1 - x0 + 1) * (y1 - y0 + 1);
+    mean = {float(sum[0] / n), float(sum[1] / n), float(sum[2] / n)};
+    max = m;
+  }
+
+  // ---- materials and textures ----
+  static Color rgb(const std::vector<double>& v, size_t len, Color fallback) {
+    if (v.size() != len) return fallback;
+    return {float(v[0]), float(v[1]), float(v[2])};
+  }
+
+  // A texture reference's Luz texture: `channel` of the image, times `scale`,
+  // sRGB-decoded or not, with its sampler and KHR_texture_transform; sets uv_set.
+  // Also returns the mean of the texture's values.
+  int32_t texture(const tinygltf::TextureInfo& info, TextureChannel channel, bool srgb, Color scale,
+                  const std::string& where, int& uv_set, Color* mean) {
+    return texture(info.index, info.texCoord, info.extensions, channel, srgb, scale, where, uv_set, mean);
+  }
+  int32_t texture(int index, int tex_coord, const tinygltf::ExtensionMap& ext, TextureChannel channel, bool srgb,
+                  Color scale, const std::string& where, int& uv_set, Color* mean) {
+    if (index < 0 || size_t(index) >= model_.textures.size()) fail(where, "no texture " + std::to_string(index));
+    const tinygltf::Texture& t = model_.textures[size_t(index)];
+    if (t.source < 0 || size_t(t.source) >= model_.images.size())
+      fail(at("textures", size_t(index)), "no image source (KHR_texture_basisu and EXT_texture_webp are not supported)");
+    UvTransform to_uv;
+    int set = tex_coord;
+    auto tt = ext.find("KHR_texture_transform");
+    if (tt != ext.end()) {
+      const tinygltf::Value& v = tt->second;
+      auto num = [&](const tinygltf::Value& x) {
+        if (!x.IsNumber() || !std::isfinite(x.GetNumberAsDouble())) fail(where, "KHR_texture_transform needs numbers");
+        return x.GetNumberAsDouble();
+      };
+      double ox = 0, oy = 0, r = 0, sx = 1, sy = 1;
+      if (v.Has("offset")) {
+        const tinygltf::Value& o = v.Get("offset");
+        if (o.ArrayLen() != 2) fail(where, "KHR_texture_transform offset needs 2 numbers");
+        ox = num(o.Get(0)), oy = num(o.Get(1));
+      }
+      if (v.Has("scale")) {
+        const tinygltf::Value& s = v.Get("scale");
+        if (s.ArrayLen() != 2) fail(where, "KHR_texture_transform scale needs 2 numbers");
+        sx = num(s.Get(0)), sy = num(s.Get(1));
+      }
+      if (v.Has("rotation")) r = num(v.Get("rotation"));
+      if (v.Has("texCoord")) set = index_of(v.Get("texCoord"));
+      const double c = std::cos(r), s = std::sin(r);
+      to_uv = {float(c * sx), float(s * sy), float(ox), float(-s * sx), float(c * sy), float(oy)};
+    }
+    if (set < 0 || set > 1) fail(where, "texCoord must be 0 or 1 (Luz reads TEXCOORD_0 and TEXCOORD_1)");
+    if (uv_set >= 0 && uv_set != set) warn(where + ": textures of one material use two texture-coordinate sets; all read TEXCOORD_" + std::to_string(uv_set));
+    else uv_set = set;
+    const int32_t base = image(t.source);
+    Texture tex = builder_.scene().textures[size_t(base)];
+    tex.bitmap.srgb = srgb;
+    tex.bitmap.channel = channel;
+    tex.to_uv = to_uv;
+    tex.scale = scale;
+    if (t.sampler >= 0) {
+      if (size_t(t.sampler) >= model_.samplers.size()) fail(at("textures", size_t(index)), "no sampler " + std::to_string(t.sampler));
+      const tinygltf::Sampler& s = model_.samplers[size_t(t.sampler)];
+      tex.bitmap.filter = s.magFilter == TINYGLTF_TEXTURE_FILTER_NEAREST ? TextureFilter::Nearest : TextureFilter::Bilinear;
+      auto wrap = [](int w) {
+        return w == TINYGLTF_TEXTURE_WRAP_CLAMP_TO_EDGE ? WrapMode::Clamp
+               : w == TINYGLTF_TEXTURE_WRAP_MIRRORED_REPEAT ? WrapMode::Mirror : WrapMode::Repeat;
+      };
+      tex.bitmap.wrap = wrap(s.wrapS);
+      if (s.wrapT != s.wrapS) warn(at("samplers", size_t(t.sampler)) + ": wrapT differs from wrapS; both follow wrapS");
+    }
+    const int32_t id = builder_.add_texture({path_ + ": " + where, 0}, tex);
+    if (mean) *mean = builder_.texture_stats(id).mean;
+    return id;
+  }
+
+  // The image's texels, added once; its first texture (RGB, sRGB) is the template.
+  int32_t image(int index) {
+    auto it = image_texture_.find(index);
+    if (it != image_texture_.end()) return it->second;
+    const tinygltf::Image& im = model_.images[size_t(index)];
+    const std::string where = at("images", size_t(index));
+    if (im.width <= 0 || im.height <= 0 || im.component != 4 || (im.bits != 8 && im.bits != 16))
+      fail(where, "not decoded to 8- or 16-bit RGBA (an unsupported image format?)");
+    const size_t texels = size_t(im.width) * size_t(im.height), bytes = size_t(im.bits / 8);
+    if (im.image.size() < texels * 4 * bytes) fail(where, "fewer texels than its size says");
+    std::vector<uint32_t> rgba(texels);
+    for (size_t k = 0; k < texels; ++k) {
+      uint32_t c[4];
+      for (int j = 0; j < 4; ++j) c[j] = im.image[(4 * k + size_t(j)) * bytes + (bytes - 1)];  // 16 bits: the high byte
+      rgba[k] = pack_rgba8(c[0], c[1], c[2], c[3]);
+    }
+    BitmapTexture b;
+    b.width = uint32_t(im.width);
+    b.height = uint32_t(im.height);
+    const int32_t id = builder_.add_image8({path_ + ": " + where, 0}, b, UvTransform{}, rgba);
+    image_texture_[index] = id;
+    return id;
+  }
+
+  double extension_number(const tinygltf::ExtensionMap& ext, const char* name, const char* key, double fallback,
+                          const std::string& where) {
+    auto it = ext.find(name);
+    if (it == ext.end() || !it->second.Has(key)) return fallback;
+    const tinygltf::Value& v = it->second.Get(key);
+    if (!v.IsNumber() || !std::isfinite(v.GetNumberAsDouble()))
+      fail(where, std::string(name) + "." + key + " must be a finite number");
+    return v.GetNumberAsDouble();
+  }
+
+  const MaterialInfo& material(int index) {
+    auto it = materials_.find(index);
+    if (it != materials_.end()) return it->second;
+    MaterialInfo info;
+    if (index < 0) {  // glTF's default material: white, metallic 1, roughness 1
+      MaterialDesc d;
+      d.bsdf = Bsdf::make_gltf_pbr({1.f, 1.f, 1.f}, 1.f, 1.f);
+      info.index = builder_.add_material(at_, d);
+      return materials_[index] = info;
+    }
+    if (size_t(index) >= model_.materials.size()) fail("meshes", "no material " + std::to_string(index));
+    const tinygltf::Material& m = model_.materials[size_t(index)];
+    const std::string where = at("materials", size_t(index));
+    const tinygltf::PbrMetallicRoughness& pbr = m.pbrMetallicRoughness;
+    if (pbr.baseColorFactor.size() != 4) fail(where, "baseColorFactor needs 4 numbers");
+    const Color base = rgb(pbr.baseColorFactor, 4, {1, 1, 1});
+    const double alpha = pbr.baseColorFactor[3];
+    auto unit = [&](double v, const char* what) {
+      if (!(v >= 0.0 && v <= 1.0)) fail(where, std::string(what) + " must lie in [0, 1]");
+      return float(v);
+    };
+    for (int k = 0; k < 3; ++k) unit(base[k], "baseColorFactor");
+    unit(alpha, "baseColorFactor");
+    const float metallic = unit(pbr.metallicFactor, "metallicFactor");
+    const float roughness = unit(pbr.roughnessFactor, "roughnessFactor");
+    const double ior = extension_number(m.extensions, "KHR_materials_ior", "ior", 1.5, where);
+    if (!(ior >= 1.0)) fail(where, "KHR_materials_ior's ior must be >= 1");
+    // KHR_materials_transmission: a thin sheet (KHR_materials_volume's
+    // thickness is not modelled).
+    const auto tx = m.extensions.find("KHR_materials_transmission");
+    const float transmission = unit(extension_number(m.extensions, "KHR_materials_transmission", "transmissionFactor", 0.0, where),
+                                    "transmissionFactor");
+    int transmission_index = -1, transmission_set = 0;
+    tinygltf::ExtensionMap transmission_ext;  // the textureInfo's own extensions (KHR_texture_transform)
+    if (tx != m.extensions.end() && tx->second.Has("transmissionTexture")) {
+      const tinygltf::Value& t = tx->second.Get("transmissionTexture");
+      transmission_index = t.Has("index") ? index_of(t.Get("index")) : -1;
+      if (transmission_index < 0) fail(where, "transmissionTexture needs an index");
+      if (t.Has("texCoord")) transmission_set = index_of(t.Get("texCoord"));
+      if (t.Has("extensions") && t.Get("extensions").IsObject())
+        for (const std::string& k : t.Get("extensions").Keys()) transmission_ext[k] = t.Get("extensions").Get(k);
+    }
+    const bool transmissive = transmission > 0.f || transmission_index >= 0;
+    if (transmissive && m.extensions.count("KHR_materials_volume"))
+      warn(where + ": KHR_materials_volume is not supported; the transmission is a thin sheet");
+    Bsdf b = transmissive ? Bsdf::make_gltf_pbr_transmission(base, metallic, roughness, transmission, float(ior))
+                          : Bsdf::make_gltf_pbr(base, metallic, roughness, float(ior), m.doubleSided);
+    GltfPbrBsdf& surface = transmissive ? b.gltf_pbr_transmission.surface : b.gltf_pbr;
+    std::vector<TextureBinding> bindings;
+    if (pbr.baseColorTexture.index >= 0) {
+      Color mean;
+      const int32_t t = texture(pbr.baseColorTexture, TextureChannel::Rgb, true, base, where + ".baseColorTexture",
+                                info.uv_set, &mean);
+      bindings.push_back({t, BsdfPart::Front, BsdfParam::BaseColor});
+      surface.base_color = mean;
+    }
+    if (transmission_index >= 0) {
+      Color mean;
+      const int32_t t = texture(transmission_index, transmission_set, transmission_ext, TextureChannel::R, false,
+                                Color{1.f, 1.f, 1.f} * transmission, where + ".transmissionTexture", info.uv_set, &mean);
+      bindings.push_back({t, BsdfPart::Front, BsdfParam::Transmission});
+      b.gltf_pbr_transmission.transmission = mean.x;
+    }
+    if (pbr.metallicRoughnessTexture.index >= 0) {
+      Color mean;
+      const std::string w = where + ".metallicRoughnessTexture";
+      const int32_t tr = texture(pbr.metallicRoughnessTexture, TextureChannel::G, false,
+                                 Color{1.f, 1.f, 1.f} * roughness, w, info.uv_set, &mean);
+      surface.roughness = mean.x;
+      const int32_t tm = texture(pbr.metallicRoughnessTexture, TextureChannel::B, false,
+                                 Color{1.f, 1.f, 1.f} * metallic, w, info.uv_set, &mean);
+      surface.metallic = mean.x;
+      bindings.push_back({tr, BsdfPart::Front, BsdfParam::Roughness});
+      bindings.push_back({tm, BsdfPart::Front, BsdfParam::Metallic});
+    }
+    // Alpha (material/opacity.h): MASK thresholds, BLEND is a fractional opacity.
+    float opacity = 1.f, cutoff = -1.f;
+    int32_t opacity_texture = -1;
+    if (m.alphaMode == "MASK" || m.alphaMode == "BLEND") {
+      const bool mask = m.alphaMode == "MASK";
+      if (mask && !(m.alphaCutoff >= 0.0 && std::isfinite(m.alphaCutoff))) fail(where, "alphaCutoff must be >= 0");
+      if (mask) cutoff = float(m.alphaCutoff);
+      if (pbr.baseColorTexture.index >= 0) {
+        opacity_texture = texture(pbr.baseColorTexture, TextureChannel::A, false, Color{1.f, 1.f, 1.f} * float(alpha),
+                                  where + ".baseColorTexture", info.uv_set, nullptr);
+      } else {
+        opacity = mask ? (alpha >= m.alphaCutoff ? 1.f : 0.f) : float(alpha);
+      }
+    } else if (m.alphaMode != "OPAQUE") {
+      fail(where, "alphaMode must be OPAQUE, MASK or BLEND");
+    }
+    if (m.normalTexture.index >= 0 && m.normalTexture.scale != 1.0)
+      warn(where + ": normalTexture.scale is ignored (read as 1)");
+    int32_t normal_map = -1;
+    if (m.normalTexture.index >= 0)
+      normal_map = texture(m.normalTexture.index, m.normalTexture.texCoord, m.normalTexture.extensions,
+                           TextureChannel::Rgb, false, {1.f, 1.f, 1.f}, where + ".normalTexture", info.uv_set, nullptr);
+    // Emission.
+    const Color ef = rgb(m.emissiveFactor, 3, {0, 0, 0});
+    const double strength = extension_number(m.extensions, "KHR_materials_emissive_strength", "emissiveStrength", 1.0, where);
+    for (int k = 0; k < 3; ++k)
+      if (!(ef[k] >= 0.f && ef[k] <= 1.f)) fail(where, "emissiveFactor must lie in [0, 1]");
+    if (!(strength >= 0.0 && strength < 1e30)) fail(where, "emissiveStrength must be finite and >= 0");
+    const Color emission = ef * float(strength);
+    if (!is_black(emission)) {
+      info.emissive = true;
+      info.emission = emission;
+      if (m.emissiveTexture.index >= 0) {
+        info.emission_texture = texture(m.emissiveTexture, TextureChannel::Rgb, true, emission,
+                                        where + ".emissiveTexture", info.uv_set, &info.emission);
+        if (is_black(info.emission)) info.emissive = false, info.emission_texture = -1;  // all texels black
+      }
+    }
+    MaterialDesc d;
+    d.bsdf = b;
+    d.bindings = bindings;
+    d.opacity = opacity;
+    d.opacity_texture = opacity_texture;
+    d.alpha_cutoff = cutoff;
+    d.normal_map = normal_map;
+    if (info.emissive && d.masked()) {
+      warn(where + ": an emissive material with alphaMode MASK or BLEND is rendered without its emission");
+      info.emissive = false, info.emission_texture = -1;
+    }
+    info.index = builder_.add_material({path_ + ": " + where, 0}, d);
+    return materials_[index] = info;
+  }
+
+  // ---- camera and lights ----
+  void set_camera(int index, const Matrix4& world, const std::string& where) {
+    if (size_t(index) >= model_.cameras.size()) fail(where, "no camera " + std::to_string(index));
+    const tinygltf::Camera& c = model_.cameras[size_t(index)];
+    const std::string cw = at("cameras", size_t(index));
+    Camera cam;
+    cam.height = 512;
+    cam.origin = world.point({0, 0, 0});
+    // glTF's camera looks along -z with +y up and +x right; Luz's x_axis
+    // points to the image's left (camera/frame.h).
+    cam.x_axis = normalize(world.vector({-1, 0, 0}));
+    cam.y_axis = normalize(world.vector({0, 1, 0}));
+    cam.z_axis = normalize(world.vector({0, 0, -1}));
+    if (!is_finite(cam.x_axis) || !is_finite(cam.y_axis) || !is_finite(cam.z_axis) || !is_finite(cam.origin) ||
+        max_abs(cam.origin) > kMaxCoordinate)
+      fail(where, "the camera's transform is degenerate or lies beyond 1e18");
+    if (c.type == "perspective") {
+      const double yfov = c.perspective.yfov, aspect = c.perspective.aspectRatio > 0 ? c.perspective.aspectRatio : 1.0;
+      if (!(yfov > 0.0 && yfov < M_PI)) fail(cw, "yfov must lie in (0, π)");
+      if (!(aspect > 1e-3 && aspect < 1e3)) fail(cw, "aspectRatio must lie in (0.001, 1000)");
+      cam.type = CameraType::Perspective;
+      cam.width = std::max(1, int(std::lround(cam.height * aspect)));
+      cam.tan_half_y = float(std::tan(yfov / 2));
+      cam.tan_half_x = cam.tan_half_y * float(cam.width) / float(cam.height);
+    } else if (c.type == "orthographic") {
+      const double xm = std::fabs(c.orthographic.xmag), ym = std::fabs(c.orthographic.ymag);
+      if (!(xm > 0 && ym > 0 && xm < 1e18 && ym < 1e18)) fail(cw, "xmag and ymag must be finite and not zero");
+      if (!(xm / ym > 1e-3 && xm / ym < 1e3)) fail(cw, "xmag / ymag must lie in (0.001, 1000)");
+      cam.type = CameraType::Orthographic;
+      cam.width = std::max(1, int(std::lround(cam.height * xm / ym)));
+      cam.tan_half_x = float(xm);
+      cam.tan_half_y = float(ym);
+    } else {
+      fail(cw, "camera type must be perspective or orthographic");
+    }
+    builder_.set_camera({path_ + ": " + where, 0}, cam);
+  }
+
+  void add_light(const tinygltf::Value& ref, const Matrix4& world, const std::string& where) {
+    const int index = index_of(ref);
+    if (index < 0 || size_t(index) >= model_.lights.size()) fail(where, "KHR_lights_punctual.light names no light");
+    const tinygltf::Light& l = model_.lights[size_t(index)];
+    const std::string lw = "KHR_lights_punctual." + at("lights", size_t(index));
+    const Color color = l.color.empty() ? Color{1, 1, 1} : rgb(l.color, 3, {-1, -1, -1});
+    for (int k = 0; k < 3; ++k)
+      if (!(color[k] >= 0.f && std::isfinite(color[k]))) fail(lw, "color needs 3 finite numbers >= 0");
+    if (!(l.intensity >= 0.0 && l.intensity < 1e30)) fail(lw, "intensity must be finite and >= 0");
+    const Color power = color * float(l.intensity / kLumensPerWatt);
+    const Vec3 pos = world.point({0, 0, 0});
+    const Vec3 axis = normalize(world.vector({0, 0, -1}));  // lights shine along -z
+    if (!is_finite(pos) || max_abs(pos) > kMaxCoordinate || !is_finite(axis))
+      fail(where, "the light's transform is degenerate or lies beyond 1e18");
+    if (l.type == "point") {
+      PointLight p;
+      p.intensity = power;
+      p.position = pos;
+      punctual_.push_back(p);
+    } else if (l.type == "directional") {
+      DirectionalLight d;
+      d.irradiance = power;
+      d.direction = axis;
+      punctual_.push_back(d);
+    } else if (l.type == "spot") {
+      const double outer = l.spot.outerConeAngle, inner = l.spot.innerConeAngle;
+      if (!(outer > 0.0 && outer <= M_PI / 2)) fail(lw, "outerConeAngle must lie in (0, π/2]");
+      if (!(inner >= 0.0 && inner < outer)) fail(lw, "innerConeAngle must lie in [0, outerConeAngle)");
+      const double beam = std::max(inner, outer * 1e-3);  // Luz's beam width must be > 0
+      SpotLight s;
+      s.intensity = power;
+      s.position = pos;
+      // Light space: z along the axis; an orthonormal x, y around it (the
+      // rows of the inverse of an orthonormal frame are its columns).
+      const Vec3 x = normalize(world.vector({1, 0, 0}));
+      s.inv_z = axis;
+      s.inv_x = normalize(x - axis * dot(x, axis));
+      s.inv_y = cross(s.inv_z, s.inv_x);
+      if (!is_finite(s.inv_x) || !is_finite(s.inv_y)) fail(where, "the spot light's transform is degenerate");
+      s.cutoff = float(outer);
+      s.beam = float(beam);
+      s.cos_cutoff = float(std::cos(outer));
+      s.cos_beam = float(std::cos(beam));
+      s.inv_transition = float(1.0 / (outer - beam));
+      s.tan_cutoff = float(std::tan(outer));
+      punctual_.push_back(s);
+    } else {
+      fail(lw, "light type must be point, spot or directional");
+    }
+  }
+};
+
+}  // namespace
+
+Scene load_gltf(const std::string& path) {
+  try {
+    return GltfLoader(path).load();
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {  // tinygltf's JSON errors, texel-array limits
+    throw InputError(path, 0, e.what());
+  }
+}
+
+}  // namespace luz

@@ -1,0 +1,543 @@
+// The glTF 2.0 loader (io/gltf.cpp): the shared sample models load (.gltf
+// and .glb alike) and render with no non-finite sample; the helmet's
+// emissive texture shows where the camera sees emissive texels (checked
+// against the JPEG read on its own); the Box's red metal under a constant
+// environment gives the directional albedo of the specification's BRDF
+// (quadrature); primitives' modes, index types, transforms, materials and
+// lights from small files written here; malformed and truncated files give
+// one InputError naming the file.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "luz/accel/embree_tracer.h"
+#include "luz/io/gltf.h"
+#include "luz/io/image.h"
+#include "luz/material/opacity.h"
+#include "cli_helpers.h"
+#include "scene_helpers.h"
+#include "temp_dir.h"
+
+using namespace luz;
+
+namespace {
+
+const std::string kDir = std::string(LUZ_SHARED_DIR) + "/scenes/gltf/";
+const std::string kBox = kDir + "Box/glTF-Embedded/Box.gltf";
+const std::string kHelmet = kDir + "DamagedHelmet/glTF/DamagedHelmet.gltf";
+const std::string kHelmetGlb = kDir + "DamagedHelmet/glTF-Binary/DamagedHelmet.glb";
+
+std::string read_file(const std::string& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+// The same view at another resolution (the aspect ratio kept).
+void resize(Scene& s, int w, int h) {
+  s.camera.width = w;
+  s.camera.height = h;
+}
+
+// A constant environment of radiance 1 (the one the loader adds to a file
+// without lights, or added here).
+void add_environment(Scene& s) {
+  bool has = false;
+  for (const Light& l : s.lights) has |= l.type == LightType::Constant && l.constant.radiance.x == 1.f;
+  if (!has) {
+    ConstantLight c;
+    c.radiance = {1.f, 1.f, 1.f};
+    s.lights.push_back(c);
+  }
+  s.compile();
+}
+
+std::string base64(const std::string& in) {
+  static const char* t = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < in.size(); i += 3) {
+    const uint32_t v = (uint8_t(in[i]) << 16) | (uint8_t(in[i + 1]) << 8) | uint8_t(in[i + 2]);
+    out += {t[v >> 18], t[(v >> 12) & 63], t[(v >> 6) & 63], t[v & 63]};
+  }
+  if (i + 1 == in.size()) {
+    const uint32_t v = uint8_t(in[i]) << 16;
+    out += {t[v >> 18], t[(v >> 12) & 63], '=', '='};
+  } else if (i + 2 == in.size()) {
+    const uint32_t v = (uint8_t(in[i]) << 16) | (uint8_t(in[i + 1]) << 8);
+    out += {t[v >> 18], t[(v >> 12) & 63], t[(v >> 6) & 63], '='};
+  }
+  return out;
+}
+template <class T>
+std::string bytes(const std::vector<T>& v) {
+  return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+}
+
+}  // namespace
+
+// Both sample models load; the helmet's .gltf and .glb give the same arrays.
+TEST(Gltf, SampleModelsLoad) {
+  Scene box = load_scene(kBox);
+  EXPECT_EQ(box.num_triangles(), 12u);
+  ASSERT_EQ(box.materials.size(), 1u);
+  EXPECT_EQ(box.materials[0].bsdf.type, BsdfType::GltfPbr);
+  EXPECT_FLOAT_EQ(box.materials[0].bsdf.gltf_pbr.base_color.x, 0.8f);
+  EXPECT_EQ(box.materials[0].bsdf.gltf_pbr.metallic, 1.f);  // glTF's default
+  // No light in the file: a white sky, and one warning saying so.
+  ASSERT_EQ(box.lights.size(), 1u);
+  EXPECT_EQ(box.lights[0].type, LightType::Constant);
+  ASSERT_EQ(box.warnings.size(), 1u);
+  EXPECT_NE(box.warnings[0].find("no light in the file"), std::string::npos) << box.warnings[0];
+
+  Scene a = load_scene(kHelmet), b = load_scene(kHelmetGlb);
+  EXPECT_EQ(a.num_triangles(), 46356u / 3);
+  ASSERT_EQ(a.positions.size(), b.positions.size());
+  for (size_t i = 0; i < a.positions.size(); ++i) {
+    ASSERT_EQ(a.positions[i].x, b.positions[i].x);
+    ASSERT_EQ(a.positions[i].z, b.positions[i].z);
+  }
+  EXPECT_EQ(a.indices, b.indices);
+  EXPECT_EQ(a.texels8, b.texels8);
+  ASSERT_EQ(a.uvs.size(), a.positions.size());
+  // Textures: base colour, roughness (G), metallic (B), normal, emissive.
+  const Material& m = a.materials[0];
+  EXPECT_EQ(m.num_bindings, 3u);
+  EXPECT_GE(m.normal_map, 0);
+  EXPECT_EQ(a.textures[size_t(a.texture_bindings[1].texture)].bitmap.channel, TextureChannel::G);
+  EXPECT_EQ(a.textures[size_t(a.texture_bindings[2].texture)].bitmap.channel, TextureChannel::B);
+  EXPECT_FALSE(a.textures[size_t(a.texture_bindings[1].texture)].bitmap.srgb);
+  // Emitters: the triangles whose emissive texels are not all black, each
+  // weighed by its texels' mean.
+  std::printf("helmet: %zu of %u triangles emit\n", a.lights.size(), a.num_triangles());
+  EXPECT_GT(a.lights.size(), 100u);
+  EXPECT_LT(a.lights.size(), a.num_triangles() / 2);
+  for (const Light& l : a.lights) EXPECT_GT(luminance(l.triangle.radiance), 0.f);
+}
+
+// Each file renders at low resolution under a constant environment with no
+// non-finite sample, and not black.
+TEST(Gltf, SampleModelsRenderFinite) {
+  for (const std::string& p : {kBox, kHelmet, kHelmetGlb}) {
+    Scene s = load_scene(p);
+    resize(s, 24, 24);
+    s.settings.spp = 4;
+    add_environment(s);
+    Film f = luz_test::render_finite(s);
+    double sum = 0;
+    for (float v : f.mean()) {
+      ASSERT_TRUE(std::isfinite(v)) << p;
+      sum += v;
+    }
+    EXPECT_GT(sum, 0.0) << p;
+  }
+}
+
+// The helmet's emission, seen directly (max_depth 1: emitted light only),
+// against its emissive texture read on its own (stb through read_image8,
+// sRGB-decoded here, the nearest texel) at the hits of camera rays traced
+// here (Embree) through an 8×8 grid of points per pixel: the box-filtered
+// pixel's expectation up to the grid's quadrature error. Compared over
+// 8×8-pixel blocks: |rendered - expected| ≤ 4 σ (the render's own variance
+// of the block sum) + 3% (the grid and the nearest texel against the
+// render's bilinear one), and over the whole image. A texture read in the
+// wrong place (v flipped, another texture) moves light between blocks.
+TEST(Gltf, HelmetEmissiveTextureShowsWhereItShould) {
+  Scene s = load_scene(kHelmet);
+  const int W = 96, H = 96, G = 8, B = 8;
+  resize(s, W, H);
+  s.settings.spp = 64;
+  s.settings.integrator.max_depth = 1;
+  s.compile();
+  const Film film = luz_test::render_finite(s);
+  const std::vector<float> img = film.mean();
+  const std::vector<double> var = film.variance_of_mean();
+  const Image8 tex = read_image8(kDir + "DamagedHelmet/glTF/Default_emissive.jpg");
+  EmbreeScene embree(s);
+  const EmbreeTracer tracer = embree.tracer();
+  auto emitted = [&](float fx, float fy) {
+    Ray r = s.camera.generate_ray(fx, fy);
+    Hit hit;
+    if (!tracer.intersect(r, hit)) return 0.0;
+    const Vec2 uv = hit_uv(s.uvs.data(), s.indices.data(), hit);
+    const double u = uv.x - std::floor(uv.x), v = uv.y - std::floor(uv.y);  // the sampler repeats
+    const int i = std::min(tex.width - 1, int(u * tex.width)), j = std::min(tex.height - 1, int(v * tex.height));
+    const uint32_t t = tex.rgba[size_t(j) * size_t(tex.width) + size_t(i)];
+    double l = 0;
+    const double w[3] = {0.2126, 0.7152, 0.0722};
+    for (int k = 0; k < 3; ++k) l += w[k] * srgb_to_linear(((t >> (8 * k)) & 255) / 255.0);
+    return l;
+  };
+  double total_got = 0, total_exp = 0, total_var = 0, worst = 0;
+  int lit_blocks = 0;
+  for (int by = 0; by < H / B; ++by)
+    for (int bx = 0; bx < W / B; ++bx) {
+      double got = 0, exp = 0, v = 0;
+      for (int y = by * B; y < (by + 1) * B; ++y)
+        for (int x = bx * B; x < (bx + 1) * B; ++x) {
+          const size_t p = 3 * (size_t(y) * W + size_t(x));
+          got += 0.2126 * img[p] + 0.7152 * img[p + 1] + 0.0722 * img[p + 2];
+          v += 0.2126 * 0.2126 * var[p] + 0.7152 * 0.7152 * var[p + 1] + 0.0722 * 0.0722 * var[p + 2];
+          for (int j = 0; j < G; ++j)
+            for (int i = 0; i < G; ++i) exp += emitted(x + (i + 0.5f) / G, y + (j + 0.5f) / G) / (G * G);
+        }
+      const double bound = 4 * std::sqrt(v) + 0.03 * exp + 1e-3;
+      worst = std::max(worst, std::fabs(got - exp) / bound);
+      EXPECT_NEAR(got, exp, bound) << "block " << bx << ", " << by;
+      lit_blocks += exp > 0.5;
+      total_got += got, total_exp += exp, total_var += v;
+    }
+  std::printf("helmet emission: image sum %.3f rendered, %.3f expected (σ %.3f); %d lit blocks; worst block at %.2f of its bound\n",
+              total_got, total_exp, std::sqrt(total_var), lit_blocks, worst);
+  EXPECT_GE(lit_blocks, 10);
+  EXPECT_NEAR(total_got, total_exp, 4 * std::sqrt(total_var) + 0.01 * total_exp);
+}
+
+// The Box (baseColorFactor (0.8, 0, 0); metallic and roughness 1 by
+// default: a red rough metal) framed from +z (no camera in the file) at
+// 15×15 pixels, lit by a constant environment of radiance 1 (the box is
+// convex: one bounce). The centre pixel sees the front face at normal
+// incidence, so its value is the BRDF's directional albedo there,
+//   A = 2π ∫ f(n, ω(θ)) cos θ sin θ dθ
+// (isotropic: f depends on θ only when wo = n), per channel, with f the
+// specification's metal lobe written out here (α = 1: D = 1/π,
+// V = 1/((cos θ + 1)·2), w = (1 - cos(θ/2))⁵). Bound: 4 σ of the pixel's
+// mean plus 1e-3 relative (the pixel spans ±0.034 rad of view direction).
+TEST(Gltf, BoxBaseColourUnderConstantLight) {
+  Scene s = load_scene(kBox);
+  resize(s, 15, 15);
+  s.settings.spp = 16384;
+  add_environment(s);
+  const Film f = luz_test::render_finite(s);
+  const std::vector<float> m = f.mean();
+  const std::vector<double> var = f.variance_of_mean();
+  const size_t c = 3 * (7 * 15 + 7);
+  const double pi = 3.14159265358979323846;
+  const double base[3] = {0.8, 0.0, 0.0};
+  const int n = 200000;
+  for (int k = 0; k < 3; ++k) {
+    double a = 0;
+    for (int i = 0; i < n; ++i) {
+      const double th = (i + 0.5) * (pi / 2) / n, ct = std::cos(th);
+      const double D = 1.0 / pi, V = 1.0 / ((ct + 1.0) * 2.0);  // α = 1 in §B.3.2's D and separable V
+      const double w = std::pow(1.0 - std::cos(th / 2), 5.0);   // v·h = cos(θ/2) for v = n
+      a += D * V * (base[k] + (1 - base[k]) * w) * ct * std::sin(th);
+    }
+    a *= 2 * pi * (pi / 2) / n;
+    const double sd = std::sqrt(var[c + size_t(k)]);
+    std::printf("box centre channel %d: %.5f ± %.5f, albedo by quadrature %.5f\n", k, m[c + size_t(k)], sd, a);
+    EXPECT_NEAR(m[c + size_t(k)], a, 4 * sd + 1e-3 * a) << "channel " << k;
+  }
+}
+
+// Small files written here: a strip and a fan of 4 vertices (2 triangles
+// each, as §3.7.2.1 lists them), byte indices, points (skipped), a node
+// with a mirroring scale (winding reversed), a camera, punctual lights,
+// and a MASK material.
+class GltfFiles : public TempDirTest {
+ protected:
+  // A glTF whose one buffer holds `bin` (a data URI), with the given JSON
+  // members after "buffers".
+  std::string gltf(const std::string& name, const std::string& bin, const std::string& rest) {
+    return write(name, "{\"asset\":{\"version\":\"2.0\"},\"buffers\":[{\"byteLength\":" + std::to_string(bin.size()) +
+                           ",\"uri\":\"data:application/octet-stream;base64," + base64(bin) + "\"}]," + rest + "}");
+  }
+  // Four vertices of a unit square in z = 0 (0,0), (1,0), (0,1), (1,1); byte
+  // indices 0 1 2 3 (accessor 1: a strip), short indices 0 1 3 2 (accessor 2: a fan).
+  std::string quad_bin() {
+    std::vector<float> p = {0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0};
+    std::vector<uint8_t> idx = {0, 1, 2, 3};
+    std::vector<uint16_t> fan = {0, 1, 3, 2};
+    return bytes(p) + bytes(idx) + bytes(fan);
+  }
+  // Its bufferViews and accessors 0-2, then `more_views` and `more_accessors` (each ",{...}").
+  std::string views(const std::string& more_views = "", const std::string& more_accessors = "") {
+    return "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":48},{\"buffer\":0,\"byteOffset\":48,"
+           "\"byteLength\":4},{\"buffer\":0,\"byteOffset\":52,\"byteLength\":8}" + more_views + "],"
+           "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"},"
+           "{\"bufferView\":1,\"componentType\":5121,\"count\":4,\"type\":\"SCALAR\"},"
+           "{\"bufferView\":2,\"componentType\":5123,\"count\":4,\"type\":\"SCALAR\"}" + more_accessors + "]";
+  }
+};
+
+TEST_F(GltfFiles, ModesIndicesTransformsCameraLights) {
+  const std::string json =
+      views() +
+      ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5},"
+      "{\"attributes\":{\"POSITION\":0},\"indices\":2,\"mode\":6},{\"attributes\":{\"POSITION\":0},\"mode\":0}]}],"
+      "\"nodes\":[{\"mesh\":0,\"translation\":[0,0,-5]},{\"mesh\":0,\"scale\":[-1,1,1]},"
+      "{\"camera\":0,\"translation\":[0,0,10]},{\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}}},"
+      "{\"extensions\":{\"KHR_lights_punctual\":{\"light\":1}},\"rotation\":[0.7071068,0,0,0.7071068]}],"
+      "\"scenes\":[{\"nodes\":[0,1,2,3,4]}],\"scene\":0,"
+      "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.5,\"aspectRatio\":2,\"znear\":0.1}}],"
+      "\"extensionsUsed\":[\"KHR_lights_punctual\"],\"extensions\":{\"KHR_lights_punctual\":{\"lights\":["
+      "{\"type\":\"point\",\"intensity\":683,\"color\":[1,0.5,0.25]},{\"type\":\"directional\",\"intensity\":6830}]}}";
+  Scene s = load_scene(gltf("modes.gltf", quad_bin(), json));
+  ASSERT_EQ(s.num_triangles(), 8u);  // 2 strip + 2 fan per node, points skipped
+  auto tri = [&](uint32_t t, int k) { return s.positions[s.indices[3 * t + uint32_t(k)]]; };
+  auto normal_z = [&](uint32_t t) { return cross(tri(t, 1) - tri(t, 0), tri(t, 2) - tri(t, 0)).z; };
+  // Strip {v0,v1,v2}, {v1,v3,v2}; fan over 0 1 3 2: {v1,v3,v0}, {v3,v2,v0}:
+  // all counter-clockwise seen from +z.
+  EXPECT_EQ(tri(0, 0).x, 0.f);
+  EXPECT_EQ(tri(1, 0).x, 1.f);  // the second strip triangle starts at v1, then v3
+  EXPECT_EQ(tri(1, 1).y, 1.f);
+  EXPECT_EQ(tri(1, 1).x, 1.f);
+  EXPECT_EQ(tri(2, 2).x, 0.f);  // the fan's centre last
+  EXPECT_EQ(tri(2, 2).y, 0.f);
+  EXPECT_EQ(tri(0, 0).z, -5.f);
+  for (uint32_t t = 0; t < 8; ++t) EXPECT_GT(normal_z(t), 0.f) << "triangle " << t << " (mirrored node: winding reversed)";
+  EXPECT_EQ(tri(4, 2).x, -1.f);  // the mirrored copy: {v0, v2, v1}
+  // Camera: at z = 10 looking down -z, 2:1.
+  EXPECT_EQ(s.camera.origin.z, 10.f);
+  EXPECT_EQ(s.camera.z_axis.z, -1.f);
+  EXPECT_EQ(s.camera.width, 2 * s.camera.height);
+  EXPECT_NEAR(s.camera.tan_half_y, std::tan(0.25f), 1e-6f);
+  // Lights: 683 cd -> 1 W/sr (times the colour); 6830 lux -> 10 W/m², shining along the node's -z rotated by 90° about x: +y.
+  ASSERT_EQ(s.lights.size(), 2u);
+  EXPECT_EQ(s.lights[0].type, LightType::Point);
+  EXPECT_NEAR(s.lights[0].point.intensity.y, 0.5f, 1e-6f);
+  EXPECT_EQ(s.lights[1].type, LightType::Directional);
+  EXPECT_NEAR(s.lights[1].directional.irradiance.x, 10.f, 1e-5f);
+  EXPECT_NEAR(s.lights[1].directional.direction.y, 1.f, 1e-6f);
+}
+
+// alphaMode MASK with a constant alpha: opacity 0 below the cutoff, 1 at or
+// above; BLEND: the alpha itself. doubleSided, KHR_materials_ior,
+// emissive strength.
+TEST_F(GltfFiles, MaterialProperties) {
+  const std::string json =
+      views() +
+      ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5,\"material\":0},"
+      "{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5,\"material\":1},"
+      "{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5,\"material\":2},"
+      "{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5,\"material\":3}]}],"
+      "\"nodes\":[{\"mesh\":0}],\"materials\":["
+      "{\"alphaMode\":\"MASK\",\"alphaCutoff\":0.6,\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,0.5]}},"
+      "{\"alphaMode\":\"BLEND\",\"doubleSided\":true,\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,1,1,0.25],"
+      "\"metallicFactor\":0.5,\"roughnessFactor\":0.25},\"extensions\":{\"KHR_materials_ior\":{\"ior\":2}}},"
+      "{\"emissiveFactor\":[1,0.5,0],\"extensions\":{\"KHR_materials_emissive_strength\":{\"emissiveStrength\":4}}},"
+      "{\"pbrMetallicRoughness\":{\"metallicFactor\":0},\"extensions\":{\"KHR_materials_transmission\":"
+      "{\"transmissionFactor\":0.75}}}]";
+  Scene s = load_scene(gltf("materials.gltf", quad_bin(), json));
+  ASSERT_EQ(s.materials.size(), 4u);
+  EXPECT_EQ(s.materials[0].opacity, 0.f);
+  EXPECT_EQ(s.materials[1].opacity, 0.25f);
+  EXPECT_TRUE(s.materials[1].bsdf.two_sided);
+  EXPECT_FALSE(s.materials[0].bsdf.two_sided);
+  EXPECT_NEAR(s.materials[1].bsdf.gltf_pbr.f0, 1.f / 9.f, 1e-7f);
+  EXPECT_EQ(s.materials[1].bsdf.gltf_pbr.roughness, 0.25f);
+  EXPECT_EQ(s.materials[3].bsdf.type, BsdfType::GltfPbrTransmission);
+  EXPECT_EQ(s.materials[3].bsdf.gltf_pbr_transmission.transmission, 0.75f);
+  EXPECT_EQ(s.materials[3].bsdf.gltf_pbr_transmission.surface.metallic, 0.f);
+  ASSERT_EQ(s.lights.size(), 1u);  // the emissive strip's two triangles, merged into a parallelogram by compile()
+  ASSERT_EQ(s.lights[0].type, LightType::Parallelogram);
+  EXPECT_EQ(s.lights[0].parallelogram.radiance.x, 4.f);
+  EXPECT_EQ(s.lights[0].parallelogram.radiance.y, 2.f);
+  // Renders finite with all four (alpha-tested, blended, emitting, transmitting).
+  resize(s, 16, 16);
+  s.settings.spp = 16;
+  add_environment(s);
+  luz_test::render_finite(s);
+}
+
+// Textures of a material: factors as scales, metallic-roughness as the B
+// and G channels (linear), base colour and emission sRGB, the normal map
+// raw, the MASK cutoff on the base colour's alpha (scaled by the factor's),
+// KHR_texture_transform as to_uv (T R S with R = [cos sin; -sin cos]).
+TEST_F(GltfFiles, MaterialTextures) {
+  Image img;
+  img.width = img.height = 2;
+  img.rgb = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+  write_image((dir / "tex.png").string(), img);
+  std::vector<float> uv = {0, 0, 1, 0, 0, 1, 1, 1};
+  const std::string bin = quad_bin() + bytes(uv);
+  const std::string doc =
+      views(",{\"buffer\":0,\"byteOffset\":60,\"byteLength\":32}",
+            ",{\"bufferView\":3,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"}") +
+      ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":3},\"indices\":1,\"mode\":5,"
+      "\"material\":0}]}],\"nodes\":[{\"mesh\":0}],\"images\":[{\"uri\":\"tex.png\"}],"
+      "\"samplers\":[{\"magFilter\":9728,\"wrapS\":33071,\"wrapT\":33071}],"
+      "\"textures\":[{\"source\":0,\"sampler\":0}],\"materials\":[{\"alphaMode\":\"MASK\",\"alphaCutoff\":0.3,"
+      "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.25,1,0.5],\"baseColorTexture\":{\"index\":0,"
+      "\"extensions\":{\"KHR_texture_transform\":{\"offset\":[0.5,0],\"rotation\":1.5707963267948966,"
+      "\"scale\":[2,3]}}},\"metallicFactor\":0.5,\"roughnessFactor\":0.75,\"metallicRoughnessTexture\":{\"index\":0}},"
+      "\"normalTexture\":{\"index\":0},\"emissiveFactor\":[1,1,1],\"emissiveTexture\":{\"index\":0}}]";
+  Scene s = load_scene(gltf("textured.gltf", bin, doc));
+  ASSERT_EQ(s.materials.size(), 1u);
+  const Material& m = s.materials[0];
+  ASSERT_EQ(m.num_bindings, 3u);
+  auto tex = [&](uint32_t k) { return s.textures[size_t(s.texture_bindings[m.first_binding + k].texture)]; };
+  EXPECT_EQ(s.texture_bindings[m.first_binding].param, BsdfParam::BaseColor);
+  const Texture base = tex(0), rough = tex(1), metal = tex(2);
+  EXPECT_TRUE(base.bitmap.srgb);
+  EXPECT_EQ(base.bitmap.channel, TextureChannel::Rgb);
+  EXPECT_EQ(base.bitmap.filter, TextureFilter::Nearest);
+  EXPECT_EQ(base.bitmap.wrap, WrapMode::Clamp);
+  EXPECT_EQ(base.scale.y, 0.25f);
+  EXPECT_NEAR(base.to_uv.a, 0.f, 1e-6f);
+  EXPECT_NEAR(base.to_uv.b, 3.f, 1e-6f);
+  EXPECT_NEAR(base.to_uv.c, 0.5f, 1e-6f);
+  EXPECT_NEAR(base.to_uv.d, -2.f, 1e-6f);
+  EXPECT_NEAR(base.to_uv.e, 0.f, 1e-6f);
+  EXPECT_EQ(s.texture_bindings[m.first_binding + 1].param, BsdfParam::Roughness);
+  EXPECT_EQ(rough.bitmap.channel, TextureChannel::G);
+  EXPECT_FALSE(rough.bitmap.srgb);
+  EXPECT_EQ(rough.scale.x, 0.75f);
+  EXPECT_EQ(s.texture_bindings[m.first_binding + 2].param, BsdfParam::Metallic);
+  EXPECT_EQ(metal.bitmap.channel, TextureChannel::B);
+  EXPECT_EQ(metal.scale.x, 0.5f);
+  // The constants hold the textures' means: G over the 4 texels is 0.5 linear.
+  EXPECT_NEAR(m.bsdf.gltf_pbr.roughness, 0.75f * 0.5f, 1e-6f);
+  ASSERT_GE(m.opacity_texture, 0);
+  const Texture alpha = s.textures[size_t(m.opacity_texture)];
+  EXPECT_EQ(alpha.bitmap.channel, TextureChannel::A);
+  EXPECT_EQ(alpha.scale.x, 0.5f);
+  EXPECT_EQ(m.alpha_cutoff, 0.3f);
+  ASSERT_GE(m.normal_map, 0);
+  EXPECT_FALSE(s.textures[size_t(m.normal_map)].bitmap.srgb);
+  // Masked and emissive: the emission goes, with a warning (and the white sky comes).
+  ASSERT_EQ(s.lights.size(), 1u);
+  EXPECT_EQ(s.lights[0].type, LightType::Constant);
+  ASSERT_FALSE(s.warnings.empty());
+  EXPECT_NE(s.warnings[0].find("without its emission"), std::string::npos) << s.warnings[0];
+}
+
+// Texture channels and scales (the glTF factors): one bitmap read as RGB,
+// as G and as A (linear), scaled; and the MASK cutoff on a texture's alpha.
+TEST(GltfTextures, ChannelScaleAndCutoff) {
+  Scene s;
+  BitmapTexture b;
+  b.width = 2;
+  b.height = 1;
+  b.srgb = false;
+  b.filter = TextureFilter::Nearest;
+  const uint32_t rgb = s.add_bitmap(b, {}, std::vector<uint32_t>{pack_rgba8(255, 51, 102, 0), pack_rgba8(0, 0, 0, 204)});
+  Texture g = s.textures[rgb];
+  g.bitmap.channel = TextureChannel::G;
+  g.scale = {2.f, 2.f, 2.f};
+  const uint32_t tg = s.add_texture(g);
+  Texture a = s.textures[rgb];
+  a.bitmap.channel = TextureChannel::A;
+  a.bitmap.srgb = true;  // alpha is linear whatever the colour encoding
+  const uint32_t ta = s.add_texture(a);
+  s.compile();
+  const SceneView v = s.view();
+  const Color c = v.textures.eval(rgb, {0.25f, 0.5f});
+  EXPECT_NEAR(c.y, 0.2f, 1e-6f);
+  const Color cg = v.textures.eval(tg, {0.25f, 0.5f});
+  EXPECT_NEAR(cg.x, 0.4f, 1e-6f);
+  EXPECT_NEAR(cg.z, 0.4f, 1e-6f);
+  EXPECT_NEAR(luminance(cg), 0.4f, 1e-6f);
+  EXPECT_NEAR(v.textures.eval(ta, {0.75f, 0.5f}).y, 0.8f, 1e-6f);
+  EXPECT_EQ(v.textures.eval(ta, {0.25f, 0.5f}).y, 0.f);
+}
+
+// Malformed and truncated files: one InputError line naming the file, never
+// a crash. Variants of the Box (its buffer is a data URI), then the GLB cut
+// at 97 lengths and with its chunk lengths lying.
+TEST_F(GltfFiles, MalformedFilesGiveOneInputError) {
+  const std::string box = read_file(kBox);
+  ASSERT_FALSE(box.empty());
+  auto variant = [&](const std::string& from, const std::string& to) {
+    std::string t = box;
+    const size_t at = t.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) t.replace(at, from.size(), to);
+    return t;
+  };
+  struct Case {
+    std::string text, problem;
+  };
+  const std::vector<Case> cases = {
+      {box.substr(0, box.size() / 2), ""},
+      {"", ""},
+      {"{}", ""},
+      {variant("\"count\": 36", "\"count\": 360000000"), "do not fit"},
+      {variant("\"count\": 24", "\"count\": 25"), "differ in count"},
+      {variant("\"byteOffset\": 288", "\"byteOffset\": 290"), "do not fit"},
+      {variant("\"children\": [\n                1\n            ]", "\"children\": [\n                0\n            ]"),
+       "reached twice"},
+      {variant("\"mesh\": 0", "\"mesh\": 7"), ""},
+      {variant("\"material\": 0", "\"material\": 3"), "no material"},
+      {variant("\"mode\": 4", "\"mode\": 9"), "unknown mode"},
+      {variant("0.800000011920929", "1.5"), "baseColorFactor"},
+      {variant("\"asset\": {", "\"extensionsRequired\": [\"KHR_draco_mesh_compression\"], \"asset\": {"),
+       "KHR_draco_mesh_compression"},
+      {variant("\"byteOffset\": 576", "\"byteOffset\": 1000000"), ""},
+      {variant("\"componentType\": 5123", "\"componentType\": 5126"), ""},
+  };
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const std::string name = "bad" + std::to_string(i) + ".gltf";
+    const std::string p = write(name, cases[i].text);
+    try {
+      load_scene(p);
+      if (!cases[i].problem.empty() || i < 3) ADD_FAILURE() << "accepted case " << i;
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find(name + ":"), std::string::npos) << what;
+      EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+      if (!cases[i].problem.empty()) EXPECT_NE(what.find(cases[i].problem), std::string::npos) << i << ": " << what;
+    }
+  }
+  // The helmet's GLB cut short, and with lying chunk lengths.
+  const std::string glb = read_file(kHelmetGlb);
+  ASSERT_GT(glb.size(), 1000u);
+  int refused = 0;
+  for (int k = 0; k < 97; ++k) {
+    const size_t len = k < 32 ? size_t(k) : glb.size() * size_t(k - 31) / 66;
+    if (len >= glb.size()) break;
+    const std::string p = write("cut.glb", glb.substr(0, len));
+    try {
+      load_scene(p);
+      ADD_FAILURE() << "a GLB cut at " << len << " bytes was accepted";
+    } catch (const InputError& e) {
+      ++refused;
+      EXPECT_NE(std::string(e.what()).find("cut.glb"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_GT(refused, 90);
+  for (size_t off : {size_t(8), size_t(12), size_t(20)}) {  // total length, JSON chunk length, BIN chunk length
+    std::string bad = glb;
+    if (off == 20) off = 20 + size_t(uint8_t(glb[12])) + (size_t(uint8_t(glb[13])) << 8) + (size_t(uint8_t(glb[14])) << 16);
+    bad[off] = char(0xff), bad[off + 1] = char(0xff), bad[off + 2] = char(0xff), bad[off + 3] = char(0x7f);
+    luz_test::expect_load_refused(write("lying.glb", bad), "lying.glb", "");
+  }
+}
+
+// The command line: the Box (no light) renders under the white sky with
+// exactly one warning line saying so; a truncated GLB and a broken .gltf exit with status 2 and one
+// line naming the file.
+class GltfCli : public luz_test::LuzCliTest {};
+
+TEST_F(GltfCli, NoLightWarningAndBadFiles) {
+  auto lines = [](const std::string& s) {
+    std::vector<std::string> v;
+    std::stringstream ss(s);
+    for (std::string l; std::getline(ss, l);) v.push_back(l);
+    return v;
+  };
+  luz_test::CliResult r = run({"render", kBox, "--spp", "1", "-o", "box.png"});
+  ASSERT_TRUE(r.exited);
+  EXPECT_EQ(r.status, 0) << r.err;
+  int warnings = 0;
+  for (const std::string& l : lines(r.err)) warnings += l.find("warning") != std::string::npos;
+  EXPECT_EQ(warnings, 1) << r.err;
+  EXPECT_NE(r.err.find("no light"), std::string::npos) << r.err;
+  const std::string glb = read_file(kHelmetGlb);
+  write("cut.glb", glb.substr(0, glb.size() / 3));
+  write("broken.gltf", read_file(kBox).substr(0, 700));
+  for (const char* bad : {"cut.glb", "broken.gltf"}) {
+    r = run({"render", bad, "-o", "x.png"});
+    ASSERT_TRUE(r.exited) << bad << ": killed by signal " << r.signal;
+    EXPECT_EQ(r.status, 2) << bad;
+    const std::vector<std::string> err = lines(r.err);
+    ASSERT_EQ(err.size(), 1u) << r.err;
+    EXPECT_NE(err[0].find(bad), std::string::npos) << err[0];
+  }
+}
