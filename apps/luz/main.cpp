@@ -2,7 +2,7 @@
 //   luz render SCENE [-o out.exr|.pfm|.png] [--spp N] [--threads N] [--seed S]
 //       [--max-depth D] [--sampler independent|stratified|sobol]
 //       [--integrator path|bsdf|light] [--light-sampler power|bvh]
-//       [--device cpu|cuda|auto] [-D name=value]...
+//       [--device cpu|cuda|auto] [--time-limit SECONDS] [-D name=value]...
 //
 // --device: cpu (the default: all cores, Embree), cuda (the first NVIDIA GPU;
 // without a usable one, a one-line error naming why, exit status 2, before
@@ -19,11 +19,12 @@
 #include <map>
 #include <string>
 
-#include "luz/device/cpu/render.h"
 #include "luz/device/cuda/render_cuda.h"
+#include "luz/device/progress.h"
 #include "luz/io/error.h"
 #include "luz/io/image.h"
 #include "luz/io/load.h"
+#include "luz/render/render.h"
 
 namespace {
 
@@ -48,7 +49,7 @@ void check_output(const std::string& out) {
 
 int render(const std::string& scene_path, std::vector<std::string> outs, int spp, int threads, long long seed, int max_depth,
            const std::string& sampler, const std::string& integrator, const std::string& light_sampler,
-           const std::string& device, const std::vector<std::string>& defs) {
+           const std::string& device, double time_limit, const std::vector<std::string>& defs) {
   luz::Defines defines;
   for (const std::string& d : defs) {
     size_t eq = d.find('=');
@@ -87,24 +88,26 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
 
   if (device == "auto" && !use_cuda)
     std::fprintf(stderr, "luz: warning: --device auto: no usable GPU (%s); rendering on the CPU\n", no_gpu.c_str());
-  luz::RenderStats stats;
   std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu light%s, on %s\n", scene_path.c_str(),
                scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(), scene.spheres.size(),
                scene.lights.size(), scene.lights.size() == 1 ? "" : "s", use_cuda ? luz::cuda_device_name().c_str() : "the CPU");
   if (!scene.lights_emit)
     std::fprintf(stderr, "luz: warning: %s: the scene has no light that emits, so the image will be black\n",
                  scene_path.c_str());
-  luz::Film film;
-  if (use_cuda) {
-    luz::CudaRenderOptions opt;
-    opt.progress = ::isatty(2);
-    film = luz::render_cuda(scene, opt, stats);
-  } else {
-    luz::CpuRenderOptions opt;
-    opt.threads = threads;
-    opt.progress = ::isatty(2);
-    film = luz::render_cpu(scene, opt, stats);
+  luz::RenderRequest req;
+  req.device = use_cuda ? luz::RenderDevice::Cuda : luz::RenderDevice::Cpu;
+  req.threads = threads;
+  req.time_limit = time_limit;
+  luz::RenderResult result;
+  {
+    luz::ProgressBar bar(::isatty(2), uint64_t(scene.camera.width) * scene.camera.height * s.spp);
+    req.progress = [&](const luz::RenderProgress& p) { bar.set(p.samples_done); };
+    result = luz::render(scene, req);
   }
+  const luz::RenderStats& stats = result.stats;
+  if (!result.complete)
+    std::fprintf(stderr, "luz: the time limit of %g s ended the render at %u of %u spp\n", time_limit, stats.spp, s.spp);
+  const luz::Film& film = result.film;
   luz::Image img{film.width, film.height, film.mean()};
   std::string written;
   for (const std::string& out : outs) {
@@ -127,6 +130,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> outs;
   int spp = 0, threads = 0, max_depth = 0;
   long long seed = -1;
+  double time_limit = 0;
   std::vector<std::string> defines;
   rc->add_option("scene", scene, "scene file (.xml or .obj)")->required();
   rc->add_option("-o,--output", outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
@@ -161,6 +165,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"power", "bvh"}));
   rc->add_option("--device", device, "where to render: cpu (default), cuda (an NVIDIA GPU), auto (cuda if usable)")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
+  rc->add_option("--time-limit", time_limit,
+                 "stop after about this many seconds of rendering, with the whole passes done (default: none)")
+      ->check(CLI::Range(0.0, 1e9));
   rc->add_option("-D", defines, "override a scene <default>: name=value")->allow_extra_args(false);
   try {
     app.parse(argc, argv);
@@ -174,7 +181,7 @@ int main(int argc, char** argv) {
   // Every error is one line: "file:line: error: problem" when it concerns a
   // file, "luz: error: problem" otherwise.
   try {
-    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, light_sampler, device, defines);
+    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, light_sampler, device, time_limit, defines);
   } catch (const luz::InputError& e) {
     if (e.file().empty())
       std::fprintf(stderr, "luz: error: %s\n", e.problem().c_str());
