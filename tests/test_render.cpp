@@ -11,15 +11,19 @@
 //  * A time limit and a cancellation return whole passes: a film equal to a
 //    complete render of the samples per pixel they report.
 //  * Requests that contradict the scene are refused.
+//  * luz render --time-limit: a valid image and exit 0; bad values refused.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <mutex>
 #include <set>
 #include <stdexcept>
 #include <thread>
 
+#include "cli_helpers.h"
 #include "luz/accel/embree_tracer.h"
 #include "luz/device/cuda/render_cuda.h"
 #include "luz/integrator/path.h"
@@ -214,6 +218,28 @@ TEST(Render, RequestsThatContradictTheSceneAreRefused) {
   req.device = RenderDevice::Cuda;
   std::string why;
   if (!cuda_available(&why)) EXPECT_THROW(render(s, req), CudaError);
+}
+
+using RenderCli = luz_test::LuzCliTest;
+
+TEST_F(RenderCli, TimeLimit) {
+  const auto t0 = std::chrono::steady_clock::now();
+  luz_test::CliResult r =
+      run({"render", kCornell, "-D", "res=16", "--spp", "16777216", "--time-limit", "0.5", "-o", "out.pfm"});
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_TRUE(r.exited);
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("the time limit of 0.5 s ended the render at "), std::string::npos) << r.err;
+  EXPECT_LT(wall, 30.0);  // generous: a loaded machine; without the limit it takes hours
+  EXPECT_GT(luz_test::fs::file_size(dir / "out.pfm"), 16u * 16u * 12u);
+  for (const char* bad : {"0", "-1", "nan", "inf", "0x10", "1e400", "2s"}) {
+    r = run({"render", kCornell, "--time-limit", bad, "-o", "bad.pfm"});
+    EXPECT_EQ(r.status, 2) << bad;
+    EXPECT_NE(r.err.find(std::string("--time-limit: '") + bad + "' is not a number of seconds"), std::string::npos)
+        << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  }
+  EXPECT_EQ(listing(), std::set<std::string>{"out.pfm"});
 }
 
 }  // namespace

@@ -167,7 +167,14 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   rc->add_option("--time-limit", time_limit,
                  "stop after about this many seconds of rendering, with the whole passes done (default: none)")
-      ->check(CLI::Range(0.0, 1e9));
+      ->check(CLI::Validator(
+          [](std::string& s) -> std::string {
+            double v = 0;
+            auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+            if (r.ec == std::errc() && r.ptr == s.data() + s.size() && v > 0 && v <= 1e9) return std::string();
+            return "'" + s + "' is not a number of seconds above 0 and at most 1e9";
+          },
+          "SECONDS"));
   rc->add_option("-D", defines, "override a scene <default>: name=value")->allow_extra_args(false);
   try {
     app.parse(argc, argv);
