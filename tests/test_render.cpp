@@ -47,7 +47,8 @@ Scene box(int res, uint32_t spp, const char* sampler = "sobol") {
   return s;
 }
 
-RenderResult run(const Scene& s, int threads, uint32_t pass_spp = 0, uint32_t first = 0, uint32_t end = 0,
+RenderResult run(const Scene& s, int threads, uint32_t pass_spp = 0, uint32_t first = 0,
+                 std::optional<uint32_t> end = std::nullopt,
                  const Film* start = nullptr) {
   RenderRequest req;
   req.threads = threads;
@@ -76,7 +77,7 @@ uint64_t film_count(const Film& f) {
 
 TEST(Render, FilmIsTheSamplesAddedInIndexOrder) {
   const Scene s = box(8, 6);
-  const RenderResult r = run(s, 2, 0, 0, 0);
+  const RenderResult r = run(s, 2);
   EXPECT_TRUE(r.complete);
   EXPECT_EQ(r.stats.spp, 6u);
   EXPECT_EQ(r.stats.samples, 8u * 8u * 6u);
@@ -113,21 +114,21 @@ TEST(Render, SameFilmForAnyThreadCount) {
 
 TEST(Render, SameFilmForAnyPassSchedule) {
   const Scene s = box(24, 40);
-  const RenderResult doubling = run(s, 2);
-  EXPECT_EQ(doubling.stats.passes, 6u);  // 1, 2, 4, 8, 16, 9
-  const RenderResult whole = run(s, 2, 40);
-  EXPECT_EQ(whole.stats.passes, 1u);
+  const RenderResult whole = run(s, 2);
+  EXPECT_EQ(whole.stats.passes, 1u);  // a small image: next_pass_spp's first pass holds it all
+  const RenderResult ones = run(s, 2, 1);
+  EXPECT_EQ(ones.stats.passes, 40u);
   const RenderResult fives = run(s, 3, 5);
   EXPECT_EQ(fives.stats.passes, 8u);
-  expect_same(doubling.film, whole.film, "doubling passes against one pass");
-  expect_same(doubling.film, fives.film, "passes of 5 spp against one pass");
+  expect_same(whole.film, ones.film, "passes of 1 spp against one pass");
+  expect_same(whole.film, fives.film, "passes of 5 spp against one pass");
   // [0, 13) then [13, 40) onto its film: the resume of a checkpoint.
   const RenderResult head = run(s, 1, 0, 0, 13);
   EXPECT_EQ(head.stats.spp, 13u);
   EXPECT_TRUE(head.complete);
   const RenderResult tail = run(s, 2, 3, 13, 40, &head.film);
   EXPECT_EQ(tail.stats.spp, 27u);
-  expect_same(doubling.film, tail.film, "[0, 13) + [13, 40) against [0, 40)");
+  expect_same(whole.film, tail.film, "[0, 13) + [13, 40) against [0, 40)");
   // The tail alone is a different film: the test can tell.
   const RenderResult alone = run(s, 2, 0, 13, 40);
   EXPECT_NE(alone.film.sum, tail.film.sum);
@@ -135,7 +136,7 @@ TEST(Render, SameFilmForAnyPassSchedule) {
 }
 
 TEST(Render, TinyImageWithManySamplesKeepsTheCoresBusy) {
-  const Scene s = box(16, 2048);  // one tile
+  const Scene s = box(16, 4096);  // one tile
   std::mutex mutex;
   std::set<std::thread::id> ids;
   std::vector<uint64_t> done;
@@ -149,7 +150,7 @@ TEST(Render, TinyImageWithManySamplesKeepsTheCoresBusy) {
       std::lock_guard<std::mutex> lock(mutex);
       ids.insert(std::this_thread::get_id());
       done.push_back(p.samples_done);
-      EXPECT_EQ(p.samples_total, 16u * 16u * 2048u);
+      EXPECT_EQ(p.samples_total, 16u * 16u * 4096u);
     }
     in_callback.fetch_sub(1);
   };
@@ -159,9 +160,26 @@ TEST(Render, TinyImageWithManySamplesKeepsTheCoresBusy) {
   EXPECT_EQ(ids.size(), 2u) << "the work items ran on one thread";
   EXPECT_GE(done.size(), 50u);
   for (size_t i = 1; i < done.size(); ++i) ASSERT_GE(done[i], done[i - 1]);
-  EXPECT_EQ(done.back(), 16u * 16u * 2048u);
+  EXPECT_EQ(done.back(), 16u * 16u * 4096u);
   size_t distinct = std::set<uint64_t>(done.begin(), done.end()).size();
   EXPECT_GE(distinct, 40u) << "the progress hardly moved";
+}
+
+// Passes double from about kPassSamplesPerThread pixel-samples per thread to
+// 64 spp (or that first size, when larger), and never leave a short one.
+TEST(Render, PassSchedule) {
+  auto schedule = [](uint64_t pixels, int threads, uint32_t spp) {
+    std::vector<uint32_t> out;
+    for (uint32_t s = 0, n = 0; s < spp; s += n) out.push_back(n = next_pass_spp(pixels, threads, n, spp - s));
+    return out;
+  };
+  using V = std::vector<uint32_t>;
+  EXPECT_EQ(schedule(1920 * 1080, 2, 300), (V{1, 2, 4, 8, 16, 32, 64, 64, 109}));
+  EXPECT_EQ(schedule(1920 * 1080, 2, 3), (V{1, 2}));
+  EXPECT_EQ(schedule(256 * 256, 2, 64), (V{8, 16, 40}));
+  EXPECT_EQ(schedule(256 * 256, 16, 64), (V{64}));
+  EXPECT_EQ(schedule(16 * 16, 2, 10000), (V{2048, 2048, 2048, 3856}));
+  EXPECT_EQ(schedule(1, 1, 1u << 24).size(), 64u);
 }
 
 TEST(Render, TimeLimitReturnsWholePasses) {

@@ -17,21 +17,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// A pass grows to at least this many pixel-samples (and at least 64 spp) before
-// it stops doubling: on a small image a pass of 64 spp is too short to keep
-// the cores busy across its end.
-constexpr uint64_t kPassSamples = uint64_t(1) << 20;
-constexpr uint32_t kMaxDoublingSpp = 64;
 // Of the time left, the share a time-limited pass is sized to fill: the rate
 // measured so far varies between passes.
 constexpr double kTimeMargin = 0.9;
-
-// Samples per pixel of pass p: 1, 2, 4, ... up to the cap, as pbrt-v4's
-// ImageTileIntegrator::Render doubles its waves.
-uint32_t doubling_pass_spp(uint32_t p, uint64_t pixels) {
-  const uint64_t cap = std::max<uint64_t>(kMaxDoublingSpp, kPassSamples / std::max<uint64_t>(pixels, 1));
-  return p >= 31 ? uint32_t(std::min<uint64_t>(cap, UINT32_MAX)) : uint32_t(std::min<uint64_t>(uint64_t(1) << p, cap));
-}
 
 // Serialises the progress callback and keeps its running totals.
 class ProgressReport {
@@ -85,9 +73,18 @@ RenderResult render_on_cuda(const Scene& scene, const RenderRequest& req, uint32
 
 }  // namespace
 
+uint32_t next_pass_spp(uint64_t pixels, int threads, uint32_t previous, uint32_t left) {
+  const uint64_t per_pass = kPassSamplesPerThread * uint64_t(std::max(threads, 1));
+  const uint64_t first = std::max<uint64_t>((per_pass + pixels - 1) / std::max<uint64_t>(pixels, 1), 1);
+  const uint64_t cap = std::max<uint64_t>(kMaxDoublingSpp, first);
+  uint64_t n = std::min<uint64_t>(previous ? std::min<uint64_t>(2 * uint64_t(previous), cap) : std::min(first, cap), left);
+  if (left - n < n) n = left;  // no short pass at the end
+  return uint32_t(n);
+}
+
 RenderResult render(const Scene& scene, const RenderRequest& req) {
   const Camera& cam = scene.camera;
-  const uint32_t first = req.first_sample, end = req.end_sample ? req.end_sample : scene.settings.spp;
+  const uint32_t first = req.first_sample, end = req.end_sample.value_or(scene.settings.spp);
   if (first > end)
     throw std::invalid_argument("render: sample range [" + std::to_string(first) + ", " + std::to_string(end) +
                                 ") is reversed");
@@ -96,6 +93,12 @@ RenderResult render(const Scene& scene, const RenderRequest& req) {
                                 std::to_string(req.start->height) + ", the camera " + std::to_string(cam.width) +
                                 "x" + std::to_string(cam.height));
   const uint64_t pixels = uint64_t(cam.width) * uint64_t(cam.height);
+  if (first == end) {  // nothing to render: the start film as it is
+    RenderResult r;
+    r.film = req.start ? *req.start : Film(cam.width, cam.height);
+    r.complete = true;
+    return r;
+  }
 
   Clock::time_point start = Clock::now(), deadline = Clock::time_point::max();
   auto stop = [&] {
@@ -120,10 +123,12 @@ RenderResult render(const Scene& scene, const RenderRequest& req) {
   ProgressReport report(req, pixels * (end - first), start);
   PassHooks hooks{stop, [&](uint64_t samples) { report.work(samples); }};
   RenderStats& st = res.stats;
-  uint32_t s = first;
+  uint32_t s = first, last = 0;
   while (s < end && !stop()) {
-    uint32_t n = std::min(end - s, req.pass_spp ? req.pass_spp : doubling_pass_spp(st.passes, pixels));
-    if (req.time_limit > 0 && st.passes > 0) {
+    uint32_t n = req.pass_spp ? std::min(end - s, req.pass_spp) : next_pass_spp(pixels, device.threads(), last, end - s);
+    if (req.time_limit > 0 && st.passes == 0 && !req.pass_spp) {
+      n = 1;  // the rate is not known yet
+    } else if (req.time_limit > 0 && st.passes > 0) {
       // Only as many samples as the rate so far fits in the time left.
       const double elapsed = std::chrono::duration<double>(Clock::now() - start).count();
       const double fit = kTimeMargin * (req.time_limit - elapsed) * (double(st.samples) / elapsed) / double(pixels);
@@ -135,6 +140,7 @@ RenderResult render(const Scene& scene, const RenderRequest& req) {
     if (!p.complete) break;
     std::swap(film, next);
     s += n;
+    last = n;
     ++st.passes;
     st.spp = s - first;
     st.samples = pixels * st.spp;

@@ -20,6 +20,9 @@ constexpr int kTile = 16;
 // A pass has at least this many work items per thread when the samples
 // allow: enough that the last items finishing leave little idle time.
 constexpr int kItemsPerThread = 8;
+// A split tile's items take at most this many pixel-samples: cancellation is
+// polled between items.
+constexpr uint64_t kMaxItemSamples = uint64_t(1) << 14;
 // The Sobol seeds of a pixel's first dimensions (at most the camera's and 8
 // vertices') are computed once per pixel and work item: two hashes per
 // dimension (~60 instructions), against ~25 saved per draw. An item of n
@@ -72,9 +75,14 @@ PassResult CpuDevice::render_pass(const Film& in, Film& out, uint32_t first, uin
   const int tiles_x = (cam.width + kTile - 1) / kTile, tiles_y = (cam.height + kTile - 1) / kTile;
   const int tiles = tiles_x * tiles_y;
   const uint32_t n = end - first;
-  // Items per tile: 1 when the tiles alone keep the cores busy.
-  const uint32_t want = uint32_t(kItemsPerThread * threads());
-  const uint32_t split = std::clamp((want + uint32_t(tiles) - 1) / uint32_t(tiles), 1u, std::max(n, 1u));
+  // Items per tile: 1 when the tiles alone keep the cores busy (then the
+  // buffer, kTile² × n radiances per tile, would be the largest).
+  const uint64_t want = uint64_t(kItemsPerThread) * uint64_t(threads());
+  uint32_t split = 1;
+  if (uint64_t(tiles) < want)
+    split = uint32_t(std::clamp<uint64_t>(std::max((want + tiles - 1) / tiles,
+                                                   (uint64_t(kTile) * kTile * n + kMaxItemSamples - 1) / kMaxItemSamples),
+                                          1, std::max(n, 1u)));
   if (split > 1) {
     m.samples.resize(size_t(tiles) * kTile * kTile * n);
     m.unfinished = std::make_unique<std::atomic<uint32_t>[]>(size_t(tiles));
