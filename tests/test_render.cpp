@@ -27,7 +27,7 @@
 #include "luz/accel/embree_tracer.h"
 #include "luz/device/cuda/render_cuda.h"
 #include "luz/integrator/path.h"
-#include "luz/io/scene_loader.h"
+#include "luz/io/load.h"
 #include "luz/render/render.h"
 
 namespace {
@@ -136,7 +136,7 @@ TEST(Render, SameFilmForAnyPassSchedule) {
 }
 
 TEST(Render, TinyImageWithManySamplesKeepsTheCoresBusy) {
-  const Scene s = box(16, 4096);  // one tile
+  const Scene s = box(8, 8192);  // one tile, one pass
   std::mutex mutex;
   std::set<std::thread::id> ids;
   std::vector<uint64_t> done;
@@ -150,7 +150,7 @@ TEST(Render, TinyImageWithManySamplesKeepsTheCoresBusy) {
       std::lock_guard<std::mutex> lock(mutex);
       ids.insert(std::this_thread::get_id());
       done.push_back(p.samples_done);
-      EXPECT_EQ(p.samples_total, 16u * 16u * 4096u);
+      EXPECT_EQ(p.samples_total, 8u * 8u * 8192u);
     }
     in_callback.fetch_sub(1);
   };
@@ -160,7 +160,7 @@ TEST(Render, TinyImageWithManySamplesKeepsTheCoresBusy) {
   EXPECT_EQ(ids.size(), 2u) << "the work items ran on one thread";
   EXPECT_GE(done.size(), 50u);
   for (size_t i = 1; i < done.size(); ++i) ASSERT_GE(done[i], done[i - 1]);
-  EXPECT_EQ(done.back(), 16u * 16u * 4096u);
+  EXPECT_EQ(done.back(), 8u * 8u * 8192u);
   size_t distinct = std::set<uint64_t>(done.begin(), done.end()).size();
   EXPECT_GE(distinct, 40u) << "the progress hardly moved";
 }
@@ -200,20 +200,22 @@ TEST(Render, TimeLimitReturnsWholePasses) {
 }
 
 TEST(Render, CancellationFromTheProgressCallbackStopsEarly) {
-  const Scene s = box(32, 1 << 20);
+  const Scene s = box(16, 1 << 20);
   std::atomic<bool> cancel{false};
   int calls = 0;
   RenderRequest req;
   req.threads = 2;
   req.cancel = &cancel;
+  req.pass_spp = 256;  // 16 work items and a pass end: 17 calls a pass
   req.progress = [&](const RenderProgress& p) {
-    if (++calls == 60 || p.seconds > 30) cancel = true;
+    if (++calls == 40 || p.seconds > 30) cancel = true;  // in the third pass
   };
   const RenderResult r = render(s, req);
   EXPECT_FALSE(r.complete);
-  EXPECT_GE(calls, 60);
+  EXPECT_GE(calls, 40);
+  EXPECT_EQ(r.stats.spp, 512u);
   EXPECT_LT(r.stats.spp, 1u << 20);
-  EXPECT_EQ(film_count(r.film) + r.stats.discarded, 32u * 32u * r.stats.spp);
+  EXPECT_EQ(film_count(r.film) + r.stats.discarded, 16u * 16u * r.stats.spp);
   expect_same(r.film, run(s, 1, 0, 0, r.stats.spp).film, "cancelled against complete");
   // Cancelled before it starts: an empty film.
   const RenderResult none = render(s, req);
