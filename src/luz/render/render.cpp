@@ -107,7 +107,8 @@ RenderResult render(const Scene& scene, const RenderRequest& req) {
   auto set_deadline = [&] {
     start = Clock::now();
     if (req.time_limit > 0)
-      deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(req.time_limit));
+      deadline = start + std::chrono::duration_cast<Clock::duration>(
+                             std::chrono::duration<double>(std::min(req.time_limit, 1e9)));  // no overflow
   };
 
   if (req.device == RenderDevice::Cuda) {
