@@ -2,7 +2,7 @@
 //   luz render SCENE [-o out.exr|.pfm|.png] [--spp N] [--threads N] [--seed S]
 //       [--max-depth D] [--sampler independent|stratified|sobol]
 //       [--integrator path|bsdf|light] [--light-sampler power|bvh]
-//       [--device cpu|cuda|auto] [-D name=value]...
+//       [--device cpu|cuda|auto] [--time-limit SECONDS] [-D name=value]...
 //
 // --device: cpu (the default: all cores, Embree), cuda (the first NVIDIA GPU;
 // without a usable one, a one-line error naming why, exit status 2, before
@@ -20,12 +20,13 @@
 #include <map>
 #include <string>
 
-#include "luz/device/cpu/render.h"
 #include "luz/device/cuda/render_cuda.h"
+#include "luz/device/progress.h"
 #include "luz/io/error.h"
 #include "luz/io/image.h"
 #include "luz/io/load.h"
 #include "luz/scene/scene_info.h"
+#include "luz/render/render.h"
 
 namespace {
 
@@ -62,7 +63,7 @@ luz::Defines parse_defines(const std::vector<std::string>& defs) {
 
 int render(const std::string& scene_path, std::vector<std::string> outs, int spp, int threads, long long seed, int max_depth,
            const std::string& sampler, const std::string& integrator, const std::string& light_sampler,
-           const std::string& device, const std::vector<std::string>& defs) {
+           const std::string& device, double time_limit, const std::vector<std::string>& defs) {
   const luz::Defines defines = parse_defines(defs);
   if (outs.empty()) outs.push_back(std::filesystem::path(scene_path).stem().string() + ".exr");
   for (const std::string& out : outs) check_output(out);
@@ -94,24 +95,26 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
 
   if (device == "auto" && !use_cuda)
     std::fprintf(stderr, "luz: warning: --device auto: no usable GPU (%s); rendering on the CPU\n", no_gpu.c_str());
-  luz::RenderStats stats;
   std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu light%s, on %s\n", scene_path.c_str(),
                scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(), scene.spheres.size(),
                scene.lights.size(), scene.lights.size() == 1 ? "" : "s", use_cuda ? luz::cuda_device_name().c_str() : "the CPU");
   if (!scene.lights_emit)
     std::fprintf(stderr, "luz: warning: %s: the scene has no light that emits, so the image will be black\n",
                  scene_path.c_str());
-  luz::Film film;
-  if (use_cuda) {
-    luz::CudaRenderOptions opt;
-    opt.progress = ::isatty(2);
-    film = luz::render_cuda(scene, opt, stats);
-  } else {
-    luz::CpuRenderOptions opt;
-    opt.threads = threads;
-    opt.progress = ::isatty(2);
-    film = luz::render_cpu(scene, opt, stats);
+  luz::RenderRequest req;
+  req.device = use_cuda ? luz::RenderDevice::Cuda : luz::RenderDevice::Cpu;
+  req.threads = threads;
+  req.time_limit = time_limit;
+  luz::RenderResult result;
+  {
+    luz::ProgressBar bar(::isatty(2), uint64_t(scene.camera.width) * scene.camera.height * s.spp);
+    req.progress = [&](const luz::RenderProgress& p) { bar.set(p.samples_done); };
+    result = luz::render(scene, req);
   }
+  const luz::RenderStats& stats = result.stats;
+  if (!result.complete)
+    std::fprintf(stderr, "luz: the time limit of %g s ended the render at %u of %u spp\n", time_limit, stats.spp, s.spp);
+  const luz::Film& film = result.film;
   luz::Image img{film.width, film.height, film.mean()};
   std::string written;
   for (const std::string& out : outs) {
@@ -134,6 +137,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> outs;
   int spp = 0, threads = 0, max_depth = 0;
   long long seed = -1;
+  double time_limit = 0;
   std::vector<std::string> defines;
   rc->add_option("scene", scene, "scene file (.xml, .pbrt, .gltf, .glb, .obj or .ply)")->required();
   rc->add_option("-o,--output", outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
@@ -168,6 +172,16 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"power", "bvh"}));
   rc->add_option("--device", device, "where to render: cpu (default), cuda (an NVIDIA GPU), auto (cuda if usable)")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
+  rc->add_option("--time-limit", time_limit,
+                 "stop after about this many seconds of rendering, with the whole passes done (default: none)")
+      ->check(CLI::Validator(
+          [](std::string& s) -> std::string {
+            double v = 0;
+            auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+            if (r.ec == std::errc() && r.ptr == s.data() + s.size() && v > 0 && v <= 1e9) return std::string();
+            return "'" + s + "' is not a number of seconds above 0 and at most 1e9";
+          },
+          "SECONDS"));
   rc->add_option("-D", defines, "override a scene <default>: name=value")->allow_extra_args(false);
   CLI::App* ic = app.add_subcommand("info", "what a scene holds, without rendering: shapes, lights, materials, camera, warnings");
   std::string info_scene;
@@ -193,7 +207,7 @@ int main(int argc, char** argv) {
       std::printf("scene: %s (loaded in %.3f s)\n%s", info_scene.c_str(), seconds, luz::describe_scene(s).c_str());
       return 0;
     }
-    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, light_sampler, device, defines);
+    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, light_sampler, device, time_limit, defines);
   } catch (const luz::InputError& e) {
     if (e.file().empty())
       std::fprintf(stderr, "luz: error: %s\n", e.problem().c_str());

@@ -36,6 +36,8 @@ class ProgressBar {
 
   // Thread-safe: `samples` more are done.
   void advance(uint64_t samples) { done_.fetch_add(samples, std::memory_order_relaxed); }
+  // Thread-safe: `samples` are done in all.
+  void set(uint64_t samples) { done_.store(samples, std::memory_order_relaxed); }
 
  private:
   void loop() {

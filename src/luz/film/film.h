@@ -49,6 +49,24 @@ struct Film {
     count[i] += p.count;
   }
 
+  // Pixel i's sums, to continue adding samples onto them, and back.
+  PixelSums pixel(size_t i) const {
+    PixelSums p;
+    for (int k = 0; k < 3; ++k) {
+      p.sum[k] = sum[3 * i + k];
+      p.sum_sq[k] = sum_sq[3 * i + k];
+    }
+    p.count = count[i];
+    return p;
+  }
+  void set(size_t i, const PixelSums& p) {
+    for (int k = 0; k < 3; ++k) {
+      sum[3 * i + k] = p.sum[k];
+      sum_sq[3 * i + k] = p.sum_sq[k];
+    }
+    count[i] = p.count;
+  }
+
   // Mean per pixel, RGB interleaved, rows top to bottom.
   std::vector<float> mean() const {
     std::vector<float> out(sum.size());

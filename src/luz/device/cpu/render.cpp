@@ -6,7 +6,7 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
+#include <vector>
 
 #include "luz/accel/embree_tracer.h"
 #include "luz/device/progress.h"
@@ -17,65 +17,149 @@ namespace luz {
 namespace {
 
 constexpr int kTile = 16;
+// A pass has at least this many work items per thread when the samples
+// allow: enough that the last items finishing leave little idle time.
+constexpr int kItemsPerThread = 8;
+// A split tile's items take at most this many pixel-samples: cancellation is
+// polled between items.
+constexpr uint64_t kMaxItemSamples = uint64_t(1) << 14;
 // The Sobol seeds of a pixel's first dimensions (at most the camera's and 8
-// vertices') are computed once per pixel: two hashes per dimension (~60
-// instructions), against ~25 saved per draw. A pixel of n samples caches n/2
-// dimensions, so that even a dimension only some paths reach pays back.
+// vertices') are computed once per pixel and work item: two hashes per
+// dimension (~60 instructions), against ~25 saved per draw. An item of n
+// samples per pixel caches n/2 dimensions, so that even a dimension only
+// some paths reach pays back.
 constexpr uint32_t kSeedCacheDims = kCameraDims + 8 * kDimsPerVertex;
 
 }  // namespace
 
-Film render_cpu(const Scene& scene, const CpuRenderOptions& options, RenderStats& stats) {
-  const SceneView view = scene.view();
-  const Camera& cam = view.camera;
-  Film film(cam.width, cam.height);
-  EmbreeScene embree(scene);
-  const EmbreeTracer tracer = embree.tracer();
-  const RenderSettings& rs = scene.settings;
-  const SamplerDesc desc = make_sampler_desc(rs.sampler, rs.spp, rs.seed);
+struct CpuDevice::Impl {
+  SceneView view;
+  EmbreeScene embree;
+  EmbreeTracer tracer;
+  const RenderSettings& rs;
+  SamplerDesc desc;
+  tbb::task_arena arena;
+  std::vector<Color> samples;  // split tiles' radiance, kTile² × n per tile
+  std::unique_ptr<std::atomic<uint32_t>[]> unfinished;  // split tiles' items still running
 
-  const int tiles_x = (cam.width + kTile - 1) / kTile, tiles_y = (cam.height + kTile - 1) / kTile;
-  std::atomic<uint64_t> rays{0}, discarded{0};
-  auto start = std::chrono::steady_clock::now();
-  {
-    ProgressBar progress(options.progress, uint64_t(cam.width) * cam.height * desc.spp);
-    tbb::task_arena arena(options.threads > 0 ? options.threads : tbb::task_arena::automatic);
-    arena.execute([&] {
-      tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y, 1), [&](const tbb::blocked_range<int>& r) {
-        for (int tile = r.begin(); tile != r.end(); ++tile) {
-          int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
-          int x1 = std::min(x0 + kTile, cam.width), y1 = std::min(y0 + kTile, cam.height);
-          uint64_t tile_rays = 0, tile_bad = 0;
-          DimSeeds seeds[kSeedCacheDims];
-          for (int y = y0; y < y1; ++y)
-            for (int x = x0; x < x1; ++x) {
-              PixelSums px;
-              Sampler sampler;
-              sampler.start(desc, uint32_t(x), uint32_t(y), 0);
-              sampler.cache_seeds(seeds, std::min(kSeedCacheDims, desc.spp / 2));
-              for (uint32_t s = 0; s < desc.spp; ++s) {
-                sampler.set_sample(s);
-                const Ray ray = camera_sample(cam, uint32_t(x), uint32_t(y), sampler, rs.filter);
-                Color L = path_li(view, tracer, ray, sampler, rs.integrator, tile_rays);
-                if (is_finite(L))
-                  px.add(L);
-                else
-                  ++tile_bad;
-              }
-              film.add(x, y, px);
-            }
-          rays.fetch_add(tile_rays, std::memory_order_relaxed);
-          discarded.fetch_add(tile_bad, std::memory_order_relaxed);
-          progress.advance(uint64_t(x1 - x0) * (y1 - y0) * desc.spp);
-        }
-      });
-    });
+  Impl(const Scene& scene, int threads)
+      : view(scene.view()),
+        embree(scene),
+        tracer(embree.tracer()),
+        rs(scene.settings),
+        desc(make_sampler_desc(rs.sampler, rs.spp, rs.seed)),
+        arena(threads > 0 ? threads : tbb::task_arena::automatic) {}
+
+  // Samples [a, b) of pixel (x, y) in index order, each radiance handed to sink.
+  template <class Sink>
+  void take(uint32_t x, uint32_t y, uint32_t a, uint32_t b, DimSeeds* seeds, uint64_t& rays, Sink&& sink) const {
+    Sampler sampler;
+    sampler.start(desc, x, y, a);
+    sampler.cache_seeds(seeds, std::min(kSeedCacheDims, (b - a) / 2));
+    for (uint32_t s = a; s < b; ++s) {
+      sampler.set_sample(s);
+      const Ray ray = camera_sample(view.camera, x, y, sampler, rs.filter);
+      sink(path_li(view, tracer, ray, sampler, rs.integrator, rays));
+    }
   }
-  stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  stats.samples = uint64_t(cam.width) * cam.height * desc.spp;
-  stats.rays = rays.load();
-  stats.discarded = discarded.load();
-  return film;
+};
+
+CpuDevice::CpuDevice(const Scene& scene, int threads) : m_(std::make_unique<Impl>(scene, threads)) {}
+CpuDevice::~CpuDevice() = default;
+
+int CpuDevice::threads() const { return m_->arena.max_concurrency(); }
+
+PassResult CpuDevice::render_pass(const Film& in, Film& out, uint32_t first, uint32_t end, const PassHooks& hooks) {
+  Impl& m = *m_;
+  const Camera& cam = m.view.camera;
+  const int tiles_x = (cam.width + kTile - 1) / kTile, tiles_y = (cam.height + kTile - 1) / kTile;
+  const int tiles = tiles_x * tiles_y;
+  const uint32_t n = end - first;
+  // Items per tile: 1 when the tiles alone keep the cores busy (then the
+  // buffer, kTile² × n radiances per tile, would be the largest).
+  const uint64_t want = uint64_t(kItemsPerThread) * uint64_t(threads());
+  uint32_t split = 1;
+  if (uint64_t(tiles) < want)
+    split = uint32_t(std::clamp<uint64_t>(std::max((want + tiles - 1) / tiles,
+                                                   (uint64_t(kTile) * kTile * n + kMaxItemSamples - 1) / kMaxItemSamples),
+                                          1, std::max(n, 1u)));
+  if (split > 1) {
+    m.samples.resize(size_t(tiles) * kTile * kTile * n);
+    m.unfinished = std::make_unique<std::atomic<uint32_t>[]>(size_t(tiles));
+    for (int t = 0; t < tiles; ++t) m.unfinished[t].store(split, std::memory_order_relaxed);
+  }
+
+  std::atomic<uint64_t> rays{0}, discarded{0};
+  std::atomic<bool> abandoned{false};
+  auto item = [&](int it) {
+    if (abandoned.load(std::memory_order_relaxed) || (hooks.stop && hooks.stop())) {
+      abandoned.store(true, std::memory_order_relaxed);
+      return;
+    }
+    const int tile = it / int(split), part = it % int(split);
+    const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
+    const int x1 = std::min(x0 + kTile, cam.width), y1 = std::min(y0 + kTile, cam.height);
+    const uint32_t k0 = uint32_t(uint64_t(n) * part / split), k1 = uint32_t(uint64_t(n) * (part + 1) / split);
+    uint64_t item_rays = 0, bad = 0;
+    DimSeeds seeds[kSeedCacheDims];
+    // Adds samples to pixel (x, y)'s sums from `in`, in index order.
+    auto add_all = [&](int x, int y, auto&& samples_of) {
+      const size_t i = size_t(y) * cam.width + x;
+      PixelSums px = in.pixel(i);
+      samples_of([&](const Color& L) {
+        if (is_finite(L))
+          px.add(L);
+        else
+          ++bad;
+      });
+      out.set(i, px);
+    };
+    if (split == 1) {
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x)
+          add_all(x, y, [&](auto&& sink) { m.take(uint32_t(x), uint32_t(y), first, end, seeds, item_rays, sink); });
+    } else {
+      Color* buf = m.samples.data() + size_t(tile) * kTile * kTile * n;
+      for (int y = y0; y < y1; ++y)
+        for (int x = x0; x < x1; ++x) {
+          Color* dst = buf + (size_t(y - y0) * kTile + (x - x0)) * n + k0;
+          m.take(uint32_t(x), uint32_t(y), first + k0, first + k1, seeds, item_rays, [&](const Color& L) { *dst++ = L; });
+        }
+      // The tile's last item adds all its samples, in order.
+      if (m.unfinished[tile].fetch_sub(1, std::memory_order_acq_rel) == 1)
+        for (int y = y0; y < y1; ++y)
+          for (int x = x0; x < x1; ++x) {
+            const Color* src = buf + (size_t(y - y0) * kTile + (x - x0)) * n;
+            add_all(x, y, [&](auto&& sink) {
+              for (uint32_t k = 0; k < n; ++k) sink(src[k]);
+            });
+          }
+    }
+    rays.fetch_add(item_rays, std::memory_order_relaxed);
+    discarded.fetch_add(bad, std::memory_order_relaxed);
+    if (hooks.done) hooks.done(uint64_t(x1 - x0) * uint64_t(y1 - y0) * (k1 - k0));
+  };
+  m.arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<int>(0, tiles * int(split), 1), [&](const tbb::blocked_range<int>& r) {
+      for (int it = r.begin(); it != r.end(); ++it) item(it);
+    });
+  });
+  PassResult res;
+  res.complete = !abandoned.load();
+  res.rays = rays.load();
+  res.discarded = res.complete ? discarded.load() : 0;
+  return res;
+}
+
+Film render_cpu(const Scene& scene, const CpuRenderOptions& options, RenderStats& stats) {
+  RenderRequest req;
+  req.threads = options.threads;
+  const Camera& cam = scene.camera;
+  ProgressBar bar(options.progress, uint64_t(cam.width) * cam.height * scene.settings.spp);
+  if (options.progress) req.progress = [&](const RenderProgress& p) { bar.set(p.samples_done); };
+  RenderResult r = render(scene, req);
+  stats = r.stats;
+  return std::move(r.film);
 }
 
 }  // namespace luz

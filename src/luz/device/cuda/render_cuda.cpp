@@ -298,7 +298,9 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   const RenderSettings& rs = scene.settings;
   const SamplerDesc desc = make_sampler_desc(rs.sampler, rs.spp, rs.seed);
   const size_t pixels = size_t(cam.width) * size_t(cam.height);
-  Film film(cam.width, cam.height);
+  const uint32_t first_sample = options.first_sample, end_sample = options.end_sample ? options.end_sample : desc.spp;
+  const uint32_t range = end_sample > first_sample ? end_sample - first_sample : 0;
+  Film film = options.start ? *options.start : Film(cam.width, cam.height);
 
   // The BVH, built on the host (binned SAH, TBB), then everything uploaded.
   const Bvh bvh = build_bvh(host);
@@ -329,8 +331,8 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres, dev.opacity());
 
   const uint32_t per_pass = options.samples_per_pass
-                                ? std::min(std::min(options.samples_per_pass, kMaxSamplesPerPass), desc.spp)
-                                : default_samples_per_pass(pixels, desc.spp);
+                                ? std::max(1u, std::min(std::min(options.samples_per_pass, kMaxSamplesPerPass), range))
+                                : default_samples_per_pass(pixels, range);
   const uint32_t threads = options.wavefront ? 1u  // the wavefront sums a pixel's samples in one thread
                            : options.threads_per_pixel ? std::min(options.threads_per_pixel, per_pass)
                                                        : default_threads_per_pixel(pixels, per_pass);
@@ -369,6 +371,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   params.threads_per_pixel = threads;
 
   std::atomic<uint64_t> discarded{0};
+  uint32_t spp_done = 0, passes_done = 0;
   // Waits for a slot's pass and adds it into the film (all cores).
   auto reduce = [&](Slot& s, int index) {
     if (!s.pending) return;
@@ -384,18 +387,22 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
         [](uint64_t a, uint64_t b) { return a + b; });
     discarded += bad;
     s.pending = false;
+    spp_done += n;
+    ++passes_done;
+    if (options.pass_done) options.pass_done(uint64_t(pixels) * n, spp_done, passes_done);
   };
 
   auto start = std::chrono::steady_clock::now();
   {
-    ProgressBar progress(options.progress, uint64_t(pixels) * desc.spp);
+    ProgressBar progress(options.progress, uint64_t(pixels) * range);
     int p = 0;
-    for (uint32_t first = 0; first < desc.spp; first += per_pass, ++p) {
+    for (uint32_t first = first_sample; first < end_sample; first += per_pass, ++p) {
+      if (options.stop && options.stop()) break;
       const int k = p & 1;
       Slot& s = slots[k];
       reduce(s, k);  // normally done already, one pass ago
       s.first_sample = first;
-      s.num_samples = std::min(per_pass, desc.spp - first);
+      s.num_samples = std::min(per_pass, end_sample - first);
       params.first_sample = s.first_sample;
       params.num_samples = s.num_samples;
       params.out = s.dev_out;
@@ -437,9 +444,11 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   unsigned long long total_rays = 0;
   check(cudaMemcpy(&total_rays, rays, sizeof total_rays, cudaMemcpyDeviceToHost), "cudaMemcpy of the ray counter");
   stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  stats.samples = uint64_t(pixels) * desc.spp;
+  stats.samples = uint64_t(pixels) * spp_done;
   stats.rays = total_rays;
   stats.discarded = discarded.load();
+  stats.passes = passes_done;
+  stats.spp = spp_done;
   return film;
 }
 

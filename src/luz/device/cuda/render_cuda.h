@@ -12,12 +12,13 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
-#include "luz/device/cpu/render.h"  // RenderStats
 #include "luz/film/film.h"
+#include "luz/render/render.h"  // RenderStats
 #include "luz/scene/scene.h"
 
 namespace luz {
@@ -42,6 +43,16 @@ struct CudaRenderOptions {
   uint32_t samples_per_pass = 0;  // samples per pixel per launch; 0: chosen from the image size
   uint32_t threads_per_pixel = 0;  // threads sharing a pixel's pass; 0: chosen from the image size
   bool wavefront = false;          // the wavefront variant (wavefront.h) instead of the megakernel
+  // Sample indices [first_sample, end_sample) of every pixel (end 0: the
+  // scene's spp), added onto `start`'s sums when given (else an empty film).
+  uint32_t first_sample = 0, end_sample = 0;
+  const Film* start = nullptr;
+  // Polled before each pass is launched: true ends the render after the
+  // passes already launched (whole passes only).
+  std::function<bool()> stop;
+  // After each pass joins the film: its pixel-samples, the samples per pixel
+  // and passes done so far.
+  std::function<void(uint64_t, uint32_t, uint32_t)> pass_done;
 };
 
 // Whether render_cuda can run: a driver new enough for this build's runtime,
@@ -53,11 +64,12 @@ bool cuda_available(std::string* why);
 // "NVIDIA H100 80GB HBM3 (sm_90, 79.1 GiB)", or "" when cuda_available() is false.
 std::string cuda_device_name();
 
-// Renders scene.settings.spp samples per pixel. Film sums are double, reduced
-// on the host from each pass's float sums (per pixel: sums, sums of squares,
-// finite-sample count). stats as render_cpu's: seconds of the sample loop
-// (BVH build and uploads excluded, like the CPU's Embree build), samples,
-// rays (camera + bounce + shadow), non-finite samples discarded.
+// Renders samples [first_sample, end_sample) of every pixel (by default the
+// scene's spp). Film sums are double, reduced on the host from each pass's
+// float sums (per pixel: sums, sums of squares, finite-sample count). stats
+// as render()'s: seconds of the sample loop (BVH build and uploads excluded,
+// like the CPU's Embree build), samples, rays (camera + bounce + shadow),
+// non-finite samples discarded, passes and spp done.
 // Throws CudaError.
 Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderStats& stats);
 
