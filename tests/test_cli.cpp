@@ -697,3 +697,24 @@ TEST_F(Cli, InfoDescribesTheScene) {
   EXPECT_NE(r.out.find("warnings: 2\n  w.obj:1: warning: mtllib 'none.mtl' not found"), std::string::npos) << r.out;
   expect_bad({"info", "missing.xml"}, "missing.xml", 0, "cannot open file");
 }
+
+// --res and --scale render any scene at another size (the stats line says
+// which, and the load time); bad values are one line, exit 2, before loading.
+TEST_F(Cli, ResAndScaleSetTheImageSize) {
+  const std::string box = std::string(LUZ_SOURCE_DIR) + "/scenes/cornell-box.xml";
+  Result r = run({"render", box, "--res", "24x16", "--spp", "1", "-o", "a.pfm", "--threads", "1"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find(": 24×16, 1 spp"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("loaded in "), std::string::npos) << r.err;
+  luz::Image a = luz::read_pfm((dir / "a.pfm").string());
+  EXPECT_EQ(a.width, 24);
+  EXPECT_EQ(a.height, 16);
+  r = run({"render", box, "--scale", "0.05", "--spp", "1", "-o", "b.pfm", "--threads", "1"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  luz::Image b = luz::read_pfm((dir / "b.pfm").string());
+  EXPECT_EQ(b.width, 26);  // 512 × 0.05 = 25.6, rounded
+  EXPECT_EQ(b.height, 26);
+  expect_bad({"render", box, "--res", "24by16", "-o", "c.pfm"}, "", 0, "--res 24by16: expected WIDTHxHEIGHT");
+  expect_bad({"render", box, "--res", "0x16", "-o", "c.pfm"}, "", 0, "each side must be between 1 and 65536");
+  expect_bad({"render", box, "--scale", "-1", "-o", "c.pfm"}, "", 0, "not a scale above 0");
+}

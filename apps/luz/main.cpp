@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <charconv>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -63,7 +64,8 @@ luz::Defines parse_defines(const std::vector<std::string>& defs) {
 
 int render(const std::string& scene_path, std::vector<std::string> outs, int spp, int threads, long long seed, int max_depth,
            const std::string& sampler, const std::string& integrator, const std::string& light_sampler,
-           const std::string& device, double time_limit, const std::vector<std::string>& defs) {
+           const std::string& device, double time_limit, const std::string& res, double scale,
+           const std::vector<std::string>& defs) {
   const luz::Defines defines = parse_defines(defs);
   if (outs.empty()) outs.push_back(std::filesystem::path(scene_path).stem().string() + ".exr");
   for (const std::string& out : outs) check_output(out);
@@ -78,7 +80,29 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
     if (!use_cuda && device == "cuda") throw luz::InputError("--device cuda: " + no_gpu);
   }
 
+  const auto load_start = std::chrono::steady_clock::now();
   luz::Scene scene = luz::load_scene(scene_path, defines);
+  const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
+  // Another size: --res WxH, or --scale F of the scene's own.
+  if (!res.empty() || scale > 0) {
+    long long w = 0, h = 0;
+    if (!res.empty()) {
+      const size_t x = res.find('x');
+      auto whole = [](const std::string& t, long long& v) {
+        auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+        return !t.empty() && r.ec == std::errc() && r.ptr == t.data() + t.size();
+      };
+      if (x == std::string::npos || !whole(res.substr(0, x), w) || !whole(res.substr(x + 1), h))
+        throw luz::InputError("--res " + res + ": expected WIDTHxHEIGHT, as 640x480");
+    } else {
+      w = std::llround(scene.camera.width * scale);
+      h = std::llround(scene.camera.height * scale);
+    }
+    if (w < 1 || h < 1 || w > 65536 || h > 65536)
+      throw luz::InputError((res.empty() ? "--scale: " : "--res " + res + ": ") + std::string("the image would be ") +
+                            std::to_string(w) + "×" + std::to_string(h) + "; each side must be between 1 and 65536");
+    scene.set_resolution(int(w), int(h));
+  }
   for (const std::string& w : scene.warnings) std::fprintf(stderr, "%s\n", w.c_str());
   luz::RenderSettings& s = scene.settings;
   if (spp > 0) s.spp = uint32_t(spp);
@@ -95,9 +119,10 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
 
   if (device == "auto" && !use_cuda)
     std::fprintf(stderr, "luz: warning: --device auto: no usable GPU (%s); rendering on the CPU\n", no_gpu.c_str());
-  std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu light%s, on %s\n", scene_path.c_str(),
-               scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(), scene.spheres.size(),
-               scene.lights.size(), scene.lights.size() == 1 ? "" : "s", use_cuda ? luz::cuda_device_name().c_str() : "the CPU");
+  std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu light%s, loaded in %.2f s, on %s\n",
+               scene_path.c_str(), scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(),
+               scene.spheres.size(), scene.lights.size(), scene.lights.size() == 1 ? "" : "s", load_seconds,
+               use_cuda ? luz::cuda_device_name().c_str() : "the CPU");
   if (!scene.lights_emit)
     std::fprintf(stderr, "luz: warning: %s: the scene has no light that emits, so the image will be black\n",
                  scene_path.c_str());
@@ -137,7 +162,8 @@ int main(int argc, char** argv) {
   std::vector<std::string> outs;
   int spp = 0, threads = 0, max_depth = 0;
   long long seed = -1;
-  double time_limit = 0;
+  double time_limit = 0, scale = 0;
+  std::string res;
   std::vector<std::string> defines;
   rc->add_option("scene", scene, "scene file (.xml, .pbrt, .gltf, .glb, .obj or .ply)")->required();
   rc->add_option("-o,--output", outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
@@ -172,6 +198,16 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"power", "bvh"}));
   rc->add_option("--device", device, "where to render: cpu (default), cuda (an NVIDIA GPU), auto (cuda if usable)")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
+  rc->add_option("--res", res, "render at WIDTHxHEIGHT instead of the scene's size (the field of view kept along the scene's axis)");
+  rc->add_option("--scale", scale, "render at F times the scene's width and height")
+      ->check(CLI::Validator(
+          [](std::string& t) -> std::string {
+            double v = 0;
+            auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+            if (r.ec == std::errc() && r.ptr == t.data() + t.size() && v > 0 && v <= 65536) return std::string();
+            return "'" + t + "' is not a scale above 0 and at most 65536";
+          },
+          "F"));
   rc->add_option("--time-limit", time_limit,
                  "stop after about this many seconds of rendering, with the whole passes done (default: none)")
       ->check(CLI::Validator(
@@ -207,7 +243,8 @@ int main(int argc, char** argv) {
       std::printf("scene: %s (loaded in %.3f s)\n%s", info_scene.c_str(), seconds, luz::describe_scene(s).c_str());
       return 0;
     }
-    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, light_sampler, device, time_limit, defines);
+    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, light_sampler, device, time_limit, res, scale,
+                  defines);
   } catch (const luz::InputError& e) {
     if (e.file().empty())
       std::fprintf(stderr, "luz: error: %s\n", e.problem().c_str());
