@@ -48,7 +48,7 @@ void check_output(const std::string& out) {
 
 int render(const std::string& scene_path, std::vector<std::string> outs, int spp, int threads, long long seed, int max_depth,
            const std::string& sampler, const std::string& integrator, const std::string& light_sampler,
-           const std::string& device, const std::vector<std::string>& defs) {
+           const std::string& device, const std::vector<std::string>& defs, const std::vector<std::string>& search) {
   luz::Defines defines;
   for (const std::string& d : defs) {
     size_t eq = d.find('=');
@@ -70,7 +70,7 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
     if (!use_cuda && device == "cuda") throw luz::InputError("--device cuda: " + no_gpu);
   }
 
-  luz::Scene scene = luz::load_scene(scene_path, defines);
+  luz::Scene scene = luz::load_scene(scene_path, defines, search);
   for (const std::string& w : scene.warnings) std::fprintf(stderr, "%s\n", w.c_str());
   luz::RenderSettings& s = scene.settings;
   if (spp > 0) s.spp = uint32_t(spp);
@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> outs;
   int spp = 0, threads = 0, max_depth = 0;
   long long seed = -1;
-  std::vector<std::string> defines;
+  std::vector<std::string> defines, search;
   rc->add_option("scene", scene, "scene file (.xml or .obj)")->required();
   rc->add_option("-o,--output", outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
       ->allow_extra_args(false);
@@ -162,6 +162,8 @@ int main(int argc, char** argv) {
   rc->add_option("--device", device, "where to render: cpu (default), cuda (an NVIDIA GPU), auto (cuda if usable)")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   rc->add_option("-D", defines, "override a scene <default>: name=value")->allow_extra_args(false);
+  rc->add_option("-a", search, "a folder where files a Mitsuba scene names are also looked for (as Mitsuba's -a)")
+      ->allow_extra_args(false);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -174,7 +176,7 @@ int main(int argc, char** argv) {
   // Every error is one line: "file:line: error: problem" when it concerns a
   // file, "luz: error: problem" otherwise.
   try {
-    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, light_sampler, device, defines);
+    return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, light_sampler, device, defines, search);
   } catch (const luz::InputError& e) {
     if (e.file().empty())
       std::fprintf(stderr, "luz: error: %s\n", e.problem().c_str());

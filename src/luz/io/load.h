@@ -5,6 +5,7 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 #include "luz/scene/scene.h"
 
@@ -12,9 +13,12 @@ namespace luz {
 
 using Defines = std::map<std::string, std::string>;
 
-// By extension: .xml (Mitsuba), .obj (OBJ/MTL).
-Scene load_scene(const std::string& path, const Defines& defines = {});
-Scene load_mitsuba(const std::string& path, const Defines& defines = {});
+// By extension: .xml (Mitsuba), .obj (OBJ/MTL). `search_paths`: folders
+// where files a Mitsuba scene names are looked for when they are not beside
+// it (Mitsuba's -a).
+Scene load_scene(const std::string& path, const Defines& defines = {}, const std::vector<std::string>& search_paths = {});
+Scene load_mitsuba(const std::string& path, const Defines& defines = {},
+                   const std::vector<std::string>& search_paths = {});
 Scene load_obj_scene(const std::string& path);
 
 }  // namespace luz
