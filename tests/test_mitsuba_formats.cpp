@@ -1,7 +1,12 @@
 // The Mitsuba reader's formats and plugins beyond the core: serialized meshes
 // (mesh_serialized.h, and malformed files), ply, disk, cylinder, shapegroup
 // and instance, include, coating, old integrator names, camelCase upgrade,
-// and every shared Mitsuba scene loading and rendering with its quirks.
+// hdrfilm's formats in the EXR output, and every shared Mitsuba scene
+// loading and rendering with its quirks.
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
 #include <gtest/gtest.h>
 #include <zlib.h>
 
@@ -15,6 +20,7 @@
 #include "scene_helpers.h"
 #include "temp_dir.h"
 #include "luz/io/error.h"
+#include "luz/io/image.h"
 #include "luz/io/load.h"
 #include "luz/io/mesh_serialized.h"
 
@@ -286,6 +292,53 @@ TEST_F(MitsubaFormats, CamelCaseInAVersion2SceneIsUpgradedWithAWarning) {
   luz::Scene s = load(scene_with_shape("<integrator type=\"path\"><integer name=\"maxDepth\" value=\"4\"/></integrator>\n", "2.0.0"));
   EXPECT_EQ(s.settings.integrator.max_depth, 4);
   EXPECT_TRUE(warned(s, "scene.xml:3: warning: parameter 'maxDepth' is a Mitsuba 0.5/0.6 camelCase name"));
+}
+
+TEST_F(MitsubaFormats, HdrfilmFormatsShapeTheExrOutput) {
+  auto film_text = [](const std::string& params) {
+    return "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"><film type=\"hdrfilm\">" + params +
+           "</film></sensor>\n<shape type=\"rectangle\"/>\n</scene>\n";
+  };
+  auto film = [&](const std::string& params) { return load(film_text(params)); };
+  luz::Scene plain = film("");
+  EXPECT_EQ(plain.settings.exr_format.channels, luz::ExrChannels::Rgb);
+  EXPECT_FALSE(plain.settings.exr_format.half);
+  luz::Scene y = film("<string name=\"pixel_format\" value=\"luminance_alpha\"/><string name=\"component_format\" value=\"float16\"/>");
+  EXPECT_EQ(y.settings.exr_format.channels, luz::ExrChannels::Luminance);
+  EXPECT_TRUE(y.settings.exr_format.half);
+  EXPECT_TRUE(warned(y, "scene.xml:2: warning: pixel_format 'luminance_alpha': Luz's film has no alpha"));
+  expect_error(film_text("<string name=\"component_format\" value=\"uint32\"/>"), "scene.xml:2", "component_format 'uint32'");
+  expect_error(film_text("<string name=\"pixel_format\" value=\"spectrum\"/>"), "scene.xml:2", "pixel_format 'spectrum'");
+
+  // The file: one half channel Y holding the luminance; X Y Z in floats.
+  const luz::Image img{2, 1, {1.f, 0.f, 0.f, 0.25f, 0.5f, 1.f}};
+  const std::string path = (dir / "y.exr").string();
+  luz::write_image(path, img, y.settings.exr_format);
+  {
+    Imf::InputFile f(path.c_str());
+    const Imf::ChannelList& ch = f.header().channels();
+    ASSERT_NE(ch.findChannel("Y"), nullptr);
+    EXPECT_EQ(ch.findChannel("Y")->type, Imf::HALF);
+    EXPECT_EQ(ch.findChannel("R"), nullptr);
+    std::vector<float> yv(2);
+    Imf::FrameBuffer fb;
+    fb.insert("Y", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(yv.data()), sizeof(float), 2 * sizeof(float)));
+    f.setFrameBuffer(fb);
+    f.readPixels(0, 0);
+    EXPECT_NEAR(yv[0], 0.212671f, 1e-3f);  // half precision: 2^-11 relative
+    EXPECT_NEAR(yv[1], 0.212671f * 0.25f + 0.715160f * 0.5f + 0.072169f, 1e-3f);
+  }
+  const std::string xyz = (dir / "xyz.exr").string();
+  luz::write_image(xyz, img, {luz::ExrChannels::Xyz, false});
+  Imf::InputFile f(xyz.c_str());
+  std::vector<float> x(2), z(2);
+  Imf::FrameBuffer fb;
+  fb.insert("X", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(x.data()), sizeof(float), 2 * sizeof(float)));
+  fb.insert("Z", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(z.data()), sizeof(float), 2 * sizeof(float)));
+  f.setFrameBuffer(fb);
+  f.readPixels(0, 0);
+  EXPECT_FLOAT_EQ(x[0], 0.412453f);
+  EXPECT_FLOAT_EQ(z[1], 0.019334f * 0.25f + 0.119193f * 0.5f + 0.950227f);
 }
 
 // ---- every shared Mitsuba scene: loads unchanged, renders small and finite ----

@@ -108,7 +108,7 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
   luz::Image img{film.width, film.height, film.mean()};
   std::string written;
   for (const std::string& out : outs) {
-    luz::write_image(out, img);
+    luz::write_image(out, img, scene.settings.exr_format);
     written += (written.empty() ? "" : ", ") + out;
   }
   std::printf("luz: %.3f s, %.3f Msamples/s, %.2f Mrays/s, %llu non-finite samples discarded, wrote %s\n",

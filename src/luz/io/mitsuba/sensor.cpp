@@ -176,9 +176,26 @@ void MitsubaParser::parse_film(pugi::xml_node n, int& width, int& height) {
   width = int(w);
   height = int(h);
   p.get_string("file_format", "openexr");
-  std::string pf = p.get_string("pixel_format", "rgb");
-  if (pf != "rgb" && pf != "rgba") error(n, "pixel_format '" + pf + "' is not supported (rgb)");
-  if (type == "hdrfilm") p.get_string("component_format", "float16");
+  // hdrfilm's pixel and component formats shape .exr outputs (ExrFormat);
+  // when the film names neither, Luz writes 32-bit RGB. Luz's film has no
+  // coverage: an alpha channel is left out, with a warning.
+  ExrFormat& exr = builder_.settings().exr_format;
+  if (pugi::xml_node f = p.get("pixel_format", {"string"})) {
+    const std::string pf = attr(f, "value");
+    const std::string base = pf.size() > 6 && pf.ends_with("_alpha") ? pf.substr(0, pf.size() - 6) : pf;
+    if (base == "rgb" || base == "rgba") exr.channels = ExrChannels::Rgb;
+    else if (base == "luminance") exr.channels = ExrChannels::Luminance;
+    else if (base == "xyz" || base == "xyza") exr.channels = ExrChannels::Xyz;
+    else error(f, "pixel_format '" + pf + "' is not supported (luminance, luminance_alpha, rgb, rgba, xyz, xyza)");
+    if (type == "ldrfilm") exr.channels = ExrChannels::Rgb;  // a PNG's format: RGB
+    else if (base != pf || pf == "rgba" || pf == "xyza")
+      builder_.warn(loc(f), "pixel_format '" + pf + "': Luz's film has no alpha; outputs are written without it");
+  }
+  if (type == "hdrfilm") {
+    const std::string cf = p.get_string("component_format", "float32");
+    if (cf == "float16") exr.half = true;
+    else if (cf != "float32") error(n, "component_format '" + cf + "' is not supported (float16, float32)");
+  }
   if (type == "ldrfilm") p.get_float("gamma", -1.0);  // the PNG encoding's gamma (-1: sRGB)
   p.get_bool("banner", false);
   p.get_bool("high_quality_edges", false);
