@@ -162,8 +162,8 @@ TEST_F(Cli, SceneIsADirectory) {
 }
 
 TEST_F(Cli, UnknownSceneFormat) {
-  write_file(dir / "scene.ply", "ply\n");
-  expect_bad({"render", "scene.ply", "-o", "out.exr"}, "scene.ply", 0, "unknown scene format");
+  write_file(dir / "scene.stl", "solid x\n");
+  expect_bad({"render", "scene.stl", "-o", "out.exr"}, "scene.stl", 0, "unknown scene format");
 }
 
 TEST_F(Cli, MalformedXmlUnclosedTag) {
@@ -679,3 +679,19 @@ TEST_F(Cli, RendersBitterliSceneV3Unchanged) {
 }
 
 }  // namespace
+
+// luz info: what was loaded, without rendering, and every warning; bad
+// input as for render.
+TEST_F(Cli, InfoDescribesTheScene) {
+  Result r = run({"info", std::string(LUZ_SOURCE_DIR) + "/scenes/cornell-box.xml"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const char* want : {"shapes: 32 triangles, 0 spheres, 0 instances", "lights: 1: 1 area (parallelogram)",
+                           "film: 512×512", "integrator: path", "warnings: 0"})
+    EXPECT_NE(r.out.find(want), std::string::npos) << want << "\n" << r.out;
+  EXPECT_TRUE(listing().empty());  // nothing rendered or written
+  write_file(dir / "w.obj", "mtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  r = run({"info", "w.obj"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.out.find("warnings: 2\n  w.obj:1: warning: mtllib 'none.mtl' not found"), std::string::npos) << r.out;
+  expect_bad({"info", "missing.xml"}, "missing.xml", 0, "cannot open file");
+}

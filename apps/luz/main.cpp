@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <charconv>
+#include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <limits>
@@ -24,6 +25,7 @@
 #include "luz/io/error.h"
 #include "luz/io/image.h"
 #include "luz/io/load.h"
+#include "luz/scene/scene_info.h"
 
 namespace {
 
@@ -46,9 +48,7 @@ void check_output(const std::string& out) {
   if (fs::is_directory(out, ec)) throw luz::InputError(out, 0, "is a directory");
 }
 
-int render(const std::string& scene_path, std::vector<std::string> outs, int spp, int threads, long long seed, int max_depth,
-           const std::string& sampler, const std::string& integrator, const std::string& light_sampler,
-           const std::string& device, const std::vector<std::string>& defs, const std::vector<std::string>& search) {
+luz::Defines parse_defines(const std::vector<std::string>& defs) {
   luz::Defines defines;
   for (const std::string& d : defs) {
     size_t eq = d.find('=');
@@ -57,6 +57,13 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
     if (defines.count(name)) throw luz::InputError("-D " + name + ": given twice");
     defines[name] = d.substr(eq + 1);
   }
+  return defines;
+}
+
+int render(const std::string& scene_path, std::vector<std::string> outs, int spp, int threads, long long seed, int max_depth,
+           const std::string& sampler, const std::string& integrator, const std::string& light_sampler,
+           const std::string& device, const std::vector<std::string>& defs, const std::vector<std::string>& search) {
+  const luz::Defines defines = parse_defines(defs);
   if (outs.empty()) outs.push_back(std::filesystem::path(scene_path).stem().string() + ".exr");
   for (const std::string& out : outs) check_output(out);
 
@@ -122,13 +129,13 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
 int main(int argc, char** argv) {
   CLI::App app{"Luz: a physically based path tracer"};
   app.require_subcommand(1);
-  CLI::App* rc = app.add_subcommand("render", "render a scene (Mitsuba 3 XML or OBJ) to an image");
+  CLI::App* rc = app.add_subcommand("render", "render a scene (Mitsuba 3 XML, OBJ or pbrt-v4) to an image");
   std::string scene, sampler, integrator, light_sampler, device = "cpu";
   std::vector<std::string> outs;
   int spp = 0, threads = 0, max_depth = 0;
   long long seed = -1;
   std::vector<std::string> defines, search;
-  rc->add_option("scene", scene, "scene file (.xml or .obj)")->required();
+  rc->add_option("scene", scene, "scene file (.xml, .obj or .pbrt)")->required();
   rc->add_option("-o,--output", outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
       ->allow_extra_args(false);
   // Whole decimal integers in a range, each flag with its own message (CLI11's
@@ -164,6 +171,11 @@ int main(int argc, char** argv) {
   rc->add_option("-D", defines, "override a scene <default>: name=value")->allow_extra_args(false);
   rc->add_option("-a", search, "a folder where files a Mitsuba scene names are also looked for (as Mitsuba's -a)")
       ->allow_extra_args(false);
+  CLI::App* ic = app.add_subcommand("info", "what a scene holds, without rendering: shapes, lights, materials, camera, warnings");
+  std::string info_scene;
+  std::vector<std::string> info_defines;
+  ic->add_option("scene", info_scene, "scene file (.xml, .obj or .ply)")->required();
+  ic->add_option("-D", info_defines, "override a scene <default>: name=value")->allow_extra_args(false);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -176,6 +188,13 @@ int main(int argc, char** argv) {
   // Every error is one line: "file:line: error: problem" when it concerns a
   // file, "luz: error: problem" otherwise.
   try {
+    if (ic->parsed()) {
+      const auto start = std::chrono::steady_clock::now();
+      const luz::Scene s = luz::load_scene(info_scene, parse_defines(info_defines));
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::printf("scene: %s (loaded in %.3f s)\n%s", info_scene.c_str(), seconds, luz::describe_scene(s).c_str());
+      return 0;
+    }
     return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, light_sampler, device, defines, search);
   } catch (const luz::InputError& e) {
     if (e.file().empty())

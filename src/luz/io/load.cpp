@@ -24,7 +24,9 @@ Scene load_scene(const std::string& path, const Defines& defines, const std::vec
   if (!defines.empty()) throw InputError(path, 0, "-D applies to Mitsuba XML scenes only");
   if (!search_paths.empty()) throw InputError(path, 0, "-a applies to Mitsuba XML scenes only");
   if (e == ".obj") return load_obj_scene(path);
-  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj)");
+  if (e == ".ply") return load_ply_scene(path);
+  if (e == ".pbrt") return load_pbrt(path);
+  throw InputError(path, 0, "unknown scene format '" + e + "' (supported: .xml, .obj, .ply, .pbrt)");
 }
 
 }  // namespace luz

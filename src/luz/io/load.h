@@ -13,12 +13,15 @@ namespace luz {
 
 using Defines = std::map<std::string, std::string>;
 
-// By extension: .xml (Mitsuba), .obj (OBJ/MTL). `search_paths`: folders
-// where files a Mitsuba scene names are looked for when they are not beside
-// it (Mitsuba's -a).
+// By extension: .xml (Mitsuba), .obj (OBJ/MTL), .ply, .pbrt (pbrt-v4).
+// `search_paths`: folders where files a Mitsuba scene names are looked for
+// when they are not beside it (Mitsuba's -a).
 Scene load_scene(const std::string& path, const Defines& defines = {}, const std::vector<std::string>& search_paths = {});
 Scene load_mitsuba(const std::string& path, const Defines& defines = {},
                    const std::vector<std::string>& search_paths = {});
+// A mesh file as a scene (mesh_scene.cpp).
 Scene load_obj_scene(const std::string& path);
+Scene load_ply_scene(const std::string& path);
+Scene load_pbrt(const std::string& path);
 
 }  // namespace luz

@@ -10,6 +10,8 @@
 #include <map>
 #include <tuple>
 #include <sstream>
+#include <string_view>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -19,49 +21,55 @@ namespace luz {
 
 namespace {
 
-// Whitespace-separated tokens of one line.
-std::vector<std::string> split(const std::string& line) {
-  std::vector<std::string> out;
-  std::string cur;
-  for (char c : line) {
-    if (c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f') {
-      if (!cur.empty()) out.push_back(std::move(cur));
-      cur.clear();
-    } else {
-      cur += c;
-    }
+// Whitespace-separated tokens of one line, into `out` (reused: no
+// allocation per line once it has grown).
+void split(std::string_view line, std::vector<std::string_view>& out) {
+  out.clear();
+  size_t k = 0;
+  auto space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; };
+  while (k < line.size()) {
+    while (k < line.size() && space(line[k])) ++k;
+    const size_t b = k;
+    while (k < line.size() && !space(line[k])) ++k;
+    if (k > b) out.push_back(line.substr(b, k - b));
   }
-  if (!cur.empty()) out.push_back(std::move(cur));
-  return out;
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string_view> v;
+  split(std::string_view(line), v);
+  return {v.begin(), v.end()};
 }
 
 // The line starting at pos, and pos moved past its end. Lines end as
 // tinyobjloader's safeGetline ends them: "\n", "\r\n" or a lone "\r" (splitting
 // at "\n" only would hide from the checks whatever follows a lone "\r").
-std::string next_line(const std::string& text, size_t& pos) {
+std::string_view next_line_view(const std::string& text, size_t& pos) {
   size_t eol = text.find_first_of("\r\n", pos);
   if (eol == std::string::npos) eol = text.size();
-  std::string line = text.substr(pos, eol - pos);
+  std::string_view line(text.data() + pos, eol - pos);
   pos = eol + (eol + 1 < text.size() && text[eol] == '\r' && text[eol + 1] == '\n' ? 2 : 1);
   return line;
 }
 
+std::string next_line(const std::string& text, size_t& pos) { return std::string(next_line_view(text, pos)); }
+
 // A finite number, or an error naming the file, the line and the value.
-void check_number(const std::string& path_, const std::string& t, int line_no, const std::string& key) {
+void check_number(const std::string& path_, std::string_view t, int line_no, std::string_view key) {
   const char* b = t.data();
   const char* e = b + t.size();
   if (b < e && *b == '+') ++b;
   float f = 0;
   auto r = std::from_chars(b, e, f);
   if (r.ptr != e || b == e || (r.ec != std::errc() && r.ec != std::errc::result_out_of_range))
-    throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a number");
+    throw InputError(path_, line_no, "'" + std::string(key) + "': '" + std::string(t) + "' is not a number");
   if (r.ec == std::errc::result_out_of_range) {
     // Out of range is an overflow, or an underflow (harmless: it reads as 0).
     double d = std::strtod(std::string(b, e).c_str(), nullptr);
     if (std::fabs(d) > 1.0)
-      throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a finite number (out of range)");
+      throw InputError(path_, line_no, "'" + std::string(key) + "': '" + std::string(t) + "' is not a finite number (out of range)");
   } else if (!std::isfinite(f)) {
-    throw InputError(path_, line_no, "'" + key + "': '" + t + "' is not a finite number");
+    throw InputError(path_, line_no, "'" + std::string(key) + "': '" + std::string(t) + "' is not a finite number");
   }
 }
 
@@ -80,21 +88,22 @@ class ObjChecker {
     for (int pass = 0; pass < 2; ++pass) {
       size_t v = 0, vt = 0, vn = 0;
       int line_no = 0;
+      std::vector<std::string_view> tok;
       for (size_t pos = 0; pos < text_.size();) {
-        std::string line = next_line(text_, pos);
+        std::string_view line = next_line_view(text_, pos);
         ++line_no;
         size_t hash = line.find('#');
-        if (hash != std::string::npos) line.resize(hash);
-        std::vector<std::string> tok = split(line);
+        if (hash != std::string_view::npos) line = line.substr(0, hash);
+        split(line, tok);
         if (tok.empty()) continue;
-        const std::string& key = tok[0];
+        const std::string_view key = tok[0];
         if (key == "v" || key == "vn" || key == "vt") {
           size_t& count = key == "v" ? v : key == "vn" ? vn : vt;
           ++count;
           if (pass == 0) continue;
           size_t need = key == "vt" ? 1 : 3;
           if (tok.size() - 1 < need)
-            throw InputError(path_, line_no, "'" + key + "' needs " + std::to_string(need) + " numbers");
+            throw InputError(path_, line_no, "'" + std::string(key) + "' needs " + std::to_string(need) + " numbers");
           for (size_t k = 1; k < tok.size(); ++k) number(tok[k], line_no, key);
         } else if (key == "f" && pass == 1) {
           if (tok.size() < 4) throw InputError(path_, line_no, "a face needs at least 3 vertices");
@@ -106,26 +115,26 @@ class ObjChecker {
   }
 
  private:
-  void number(const std::string& t, int line_no, const std::string& key) const {
+  void number(std::string_view t, int line_no, std::string_view key) const {
     check_number(path_, t, line_no, key);
   }
 
   // "v", "v/t", "v//n" or "v/t/n": each index non-zero and in range.
-  void face_vertex(const std::string& t, int line_no, size_t v, size_t vt, size_t vn) const {
-    std::string part[3];
+  void face_vertex(std::string_view t, int line_no, size_t v, size_t vt, size_t vn) const {
+    std::string_view part[3];
     int np = 0;
-    for (char c : t) {
-      if (c == '/') {
-        if (++np > 2) throw InputError(path_, line_no, "face vertex '" + t + "' is malformed");
-      } else {
-        part[np] += c;
-      }
+    size_t start = 0;
+    for (size_t k = 0; k <= t.size(); ++k) {
+      if (k < t.size() && t[k] != '/') continue;
+      if (np > 2) throw InputError(path_, line_no, "face vertex '" + std::string(t) + "' is malformed");
+      part[np++] = t.substr(start, k - start);
+      start = k + 1;
     }
     const char* what[3] = {"vertex", "texture coordinate", "normal"};
     size_t so_far[3] = {v, vt, vn}, total[3] = {total_v_, total_vt_, total_vn_};
-    for (int k = 0; k <= np; ++k) {
+    for (int k = 0; k < np; ++k) {
       if (part[k].empty()) {
-        if (k == 0) throw InputError(path_, line_no, "face vertex '" + t + "' lacks a vertex index");
+        if (k == 0) throw InputError(path_, line_no, "face vertex '" + std::string(t) + "' lacks a vertex index");
         continue;
       }
       long long i = 0;
@@ -133,11 +142,12 @@ class ObjChecker {
       const char* e = b + part[k].size();
       auto r = std::from_chars(b, e, i);
       if (r.ec != std::errc() || r.ptr != e)
-        throw InputError(path_, line_no, "face vertex '" + t + "': '" + part[k] + "' is not an index");
+        throw InputError(path_, line_no,
+                         "face vertex '" + std::string(t) + "': '" + std::string(part[k]) + "' is not an index");
       bool ok = i > 0 ? size_t(i) <= total[k] : i < 0 && size_t(-i) <= so_far[k];
       if (!ok)
         throw InputError(path_, line_no,
-                         std::string(what[k]) + " index " + part[k] + " is out of range (" +
+                         std::string(what[k]) + " index " + std::string(part[k]) + " is out of range (" +
                              std::to_string(i > 0 ? total[k] : so_far[k]) + " defined)");
     }
   }
@@ -149,7 +159,8 @@ class ObjChecker {
 
 // The MTL files an OBJ names, checked the same way: tinyobjloader reads an
 // unparsable or non-finite colour or exponent as 0 without a word.
-void check_mtl_files(const std::string& obj_path, const std::string& obj_text) {
+// Missing files are warnings (the faces get the default material).
+void check_mtl_files(const std::string& obj_path, const std::string& obj_text, std::vector<ObjWarning>& warnings) {
   int obj_line = 0;
   for (size_t pos = 0; pos < obj_text.size();) {
     std::string line = next_line(obj_text, pos);
@@ -159,7 +170,10 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text) {
     for (size_t k = 1; k < tok.size(); ++k) {
       std::filesystem::path mtl = std::filesystem::path(obj_path).parent_path() / tok[k];
       std::error_code ec;
-      if (!std::filesystem::exists(mtl, ec)) continue;  // tinyobjloader's own warning path: the default material
+      if (!std::filesystem::exists(mtl, ec)) {
+        warnings.push_back({obj_path, obj_line, "mtllib '" + tok[k] + "' not found: its materials are diffuse 0.5"});
+        continue;
+      }
       // A FIFO or a device (/dev/zero) would block or never end, here and in tinyobjloader.
       if (!std::filesystem::is_regular_file(mtl, ec))
         throw InputError(obj_path, obj_line, "mtllib '" + tok[k] + "' is not a regular file");
@@ -174,7 +188,7 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text) {
         ++n;
         std::vector<std::string> t = split(ml.substr(0, ml.find('#')));
         if (t.empty()) continue;
-        static const char* kNumeric[] = {"Kd", "Ks", "Ke", "Ka", "Tf", "Ns", "Ni", "d", "Tr"};
+        static const char* kNumeric[] = {"Kd", "Ks", "Ke", "Ka", "Tf", "Ns", "Ni", "d", "Tr", "illum"};
         bool numeric = false;
         for (const char* key : kNumeric) numeric = numeric || t[0] == key;
         if (!numeric) continue;
@@ -188,11 +202,30 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text) {
           double v = std::strtod(t[j].c_str(), nullptr);
           if ((t[0] == "Kd" || t[0] == "Ks") && !(v >= 0 && v <= 1))
             throw InputError(mtl.string(), n, "'" + t[0] + "': '" + t[j] + "' must lie in [0, 1]");
-          if ((t[0] == "Ke" || t[0] == "Ns") && !(v >= 0))
+          if ((t[0] == "Ke" || t[0] == "Ns" || t[0] == "Tf") && !(v >= 0))
             throw InputError(mtl.string(), n, "'" + t[0] + "': '" + t[j] + "' must not be negative");
+          if ((t[0] == "d" || t[0] == "Tr") && !(v >= 0 && v <= 1))
+            throw InputError(mtl.string(), n, "'" + t[0] + "': '" + t[j] + "' must lie in [0, 1]");
+          if (t[0] == "Ni" && !(v > 0))
+            throw InputError(mtl.string(), n, "'Ni': '" + t[j] + "' must be positive");
         }
       }
     }
+  }
+}
+
+// `usemtl` names no material of the MTL files: a warning at its line (the
+// faces get the default material).
+void unknown_materials(const std::string& path, const std::string& text, const std::vector<tinyobj::material_t>& mats,
+                       std::vector<ObjWarning>& warnings) {
+  int line_no = 0;
+  for (size_t pos = 0; pos < text.size();) {
+    const std::vector<std::string> tok = split(next_line(text, pos));
+    ++line_no;
+    if (tok.size() < 2 || tok[0] != "usemtl") continue;
+    bool known = false;
+    for (const tinyobj::material_t& m : mats) known = known || m.name == tok[1];
+    if (!known) warnings.push_back({path, line_no, "usemtl '" + tok[1] + "': no such material: diffuse 0.5"});
   }
 }
 
@@ -210,10 +243,11 @@ std::string read_text(const std::string& path) {
 
 }  // namespace
 
-ObjMesh read_obj(const std::string& path, bool with_materials, bool with_texcoords) {
+ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texcoords) {
   const std::string text = read_text(path);
   ObjChecker(path, text).check();
-  if (with_materials) check_mtl_files(path, text);
+  ObjMesh mesh;
+  if (with_materials) check_mtl_files(path, text, mesh.warnings);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
@@ -245,8 +279,10 @@ ObjMesh read_obj(const std::string& path, bool with_materials, bool with_texcoor
         throw InputError(path, 0, "face index out of range");
   }
 
-  ObjMesh mesh;
-  if (with_materials)
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  auto texture = [&](const std::string& name) { return name.empty() ? name : (dir / name).string(); };
+  bool textured = false;
+  if (with_materials) {
     for (const tinyobj::material_t& m : reader.GetMaterials()) {
       ObjMaterial om;
       om.name = m.name;
@@ -254,18 +290,40 @@ ObjMesh read_obj(const std::string& path, bool with_materials, bool with_texcoor
       om.ks = {m.specular[0], m.specular[1], m.specular[2]};
       om.ke = {m.emission[0], m.emission[1], m.emission[2]};
       om.ns = m.shininess;
+      om.illum = m.illum;
+      om.ni = m.ior;
+      om.tf = {m.transmittance[0], m.transmittance[1], m.transmittance[2]};
+      om.d = m.dissolve;
+      om.map_kd = texture(m.diffuse_texname);
+      om.map_ks = texture(m.specular_texname);
+      om.map_ns = texture(m.specular_highlight_texname);
+      om.map_bump = texture(m.bump_texname);
+      om.map_d = texture(m.alpha_texname);
+      om.bump_multiplier = m.bump_texopt.bump_multiplier;
+      textured |= !(om.map_kd + om.map_ks + om.map_ns + om.map_bump + om.map_d).empty();
       mesh.materials.push_back(om);
     }
+    unknown_materials(path, text, reader.GetMaterials(), mesh.warnings);
+  }
 
   // Normals and texture coordinates are used only when every face vertex has one.
-  bool all_normals = !attrib.normals.empty(), all_texcoords = with_texcoords && !attrib.texcoords.empty();
+  const bool want_texcoords = texcoords == ObjTexcoords::Yes || (texcoords == ObjTexcoords::IfTextured && textured);
+  bool all_normals = !attrib.normals.empty(), all_texcoords = want_texcoords && !attrib.texcoords.empty();
   for (const tinyobj::shape_t& shape : reader.GetShapes())
     for (const tinyobj::index_t& idx : shape.mesh.indices) {
       if (idx.normal_index < 0) all_normals = false;
       if (idx.texcoord_index < 0) all_texcoords = false;
     }
 
-  std::map<std::tuple<int, int, int>, uint32_t> remap;
+  // De-indexing: one vertex per distinct (position, normal, uv) index triple.
+  struct TripleHash {
+    size_t operator()(const std::tuple<int, int, int>& k) const {
+      const uint64_t a = uint32_t(std::get<0>(k)), b = uint32_t(std::get<1>(k)), c = uint32_t(std::get<2>(k));
+      return size_t((a * 0x9E3779B97F4A7C15ull) ^ (b * 0xC2B2AE3D27D4EB4Full) ^ (c * 0x165667B19E3779F9ull));
+    }
+  };
+  std::unordered_map<std::tuple<int, int, int>, uint32_t, TripleHash> remap;
+  remap.reserve(attrib.vertices.size() / 3);
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     const auto& ix = shape.mesh.indices;
     for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {

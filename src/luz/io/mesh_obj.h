@@ -12,6 +12,20 @@ struct ObjMaterial {
   std::string name;
   Color kd{0.5f, 0.5f, 0.5f}, ks{}, ke{};
   float ns = 1.f;
+  int illum = 0;       // 3 and 5: a mirror; 7: glass
+  float ni = 1.f;      // index of refraction
+  Color tf{};          // transmission filter
+  float d = 1.f;       // opacity ("d", or 1 - "Tr")
+  // Texture files (paths resolved against the OBJ's directory; empty: none).
+  std::string map_kd, map_ks, map_ns, map_bump, map_d;
+  float bump_multiplier = 1.f;  // map_bump's -bm
+};
+
+// A warning of the reader: the file and line it concerns.
+struct ObjWarning {
+  std::string file;
+  int line = 0;
+  std::string message;
 };
 
 struct ObjMesh {
@@ -22,13 +36,16 @@ struct ObjMesh {
   std::vector<uint32_t> indices;
   std::vector<int> face_material;  // per triangle, -1: none
   std::vector<ObjMaterial> materials;
+  std::vector<ObjWarning> warnings;  // a missing mtllib, an unknown usemtl
 };
+
+// Whether texture coordinates are read: de-indexing by them splits vertices
+// at every uv seam, which costs an untextured mesh memory and Embree its quads.
+enum class ObjTexcoords { No, Yes, IfTextured /* when a material has a texture map */ };
 
 // Throws InputError. Faces are triangulated; vertices are de-indexed per
 // (position, normal) pair, or per (position, normal, texture coordinate)
-// triple with `with_texcoords` (only then is `texcoords` filled: de-indexing
-// by texture coordinates splits vertices at every uv seam, which costs an
-// untextured mesh memory and Embree its quads).
-ObjMesh read_obj(const std::string& path, bool with_materials, bool with_texcoords = false);
+// triple when texture coordinates are read (only then is `texcoords` filled).
+ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texcoords = ObjTexcoords::No);
 
 }  // namespace luz

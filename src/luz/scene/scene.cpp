@@ -286,6 +286,40 @@ void Scene::compile() {
   light_bvh = build_light_bvh(lights.data(), power.data(), uint32_t(lights.size()));
 }
 
+void fit_fov(FovAxis axis, double t, int width, int height, float& tx, float& ty) {
+  const double aspect = double(width) / height;
+  double x = t, y = t / aspect;  // FovAxis::X
+  switch (axis) {
+    case FovAxis::X: break;
+    case FovAxis::Y: y = t, x = t * aspect; break;
+    case FovAxis::Diagonal: x = t / std::sqrt(1 + 1 / (aspect * aspect)), y = x / aspect; break;
+    case FovAxis::Smaller:
+      if (aspect > 1) y = t, x = t * aspect;
+      break;
+    case FovAxis::Larger:
+      if (aspect <= 1) y = t, x = t * aspect;
+      break;
+  }
+  tx = float(x);
+  ty = float(y);
+}
+
+void Scene::set_resolution(int width, int height) {
+  const double x = camera.tan_half_x, y = camera.tan_half_y;
+  const bool wide = camera.width > camera.height;
+  double t = x;
+  switch (fov_axis) {
+    case FovAxis::X: t = x; break;
+    case FovAxis::Y: t = y; break;
+    case FovAxis::Diagonal: t = std::sqrt(x * x + y * y); break;
+    case FovAxis::Smaller: t = wide ? y : x; break;
+    case FovAxis::Larger: t = wide ? x : y; break;
+  }
+  fit_fov(fov_axis, t, width, height, camera.tan_half_x, camera.tan_half_y);
+  camera.width = width;
+  camera.height = height;
+}
+
 SceneView Scene::view() const {
   SceneView v;
   v.positions = positions.data();

@@ -24,6 +24,15 @@ struct RenderSettings {
   ExrFormat exr_format;  // how .exr outputs are written (Mitsuba's hdrfilm formats)
 };
 
+// Which extent of the film a field of view is given along (Mitsuba's
+// fov_axis; pbrt's fov is along the shorter side): what stays fixed when the
+// resolution changes.
+enum class FovAxis : uint8_t { X, Y, Diagonal, Smaller, Larger };
+
+// The film's half extents (Camera::tan_half_x, tan_half_y) for a half field
+// of view of tangent t along `axis` on a width × height film.
+void fit_fov(FovAxis axis, double t, int width, int height, float& tan_half_x, float& tan_half_y);
+
 struct Scene {
   std::vector<Vec3> positions;
   std::vector<Vec3> normals;  // empty, or one per position
@@ -43,7 +52,9 @@ struct Scene {
   std::vector<float> texelsf;
   std::vector<float> srgb_table;
   Camera camera;
+  FovAxis fov_axis = FovAxis::X;  // what set_resolution keeps
   RenderSettings settings;
+  size_t instances = 0;  // placed by the loader (flattened into the arrays above)
   // One-line warnings of the loader ("file:line: warning: ..."), for the CLI to print.
   std::vector<std::string> warnings;
 
@@ -79,6 +90,10 @@ struct Scene {
   uint32_t add_bitmap(BitmapTexture bitmap, const UvTransform& to_uv, const std::vector<uint32_t>& rgba8);
   uint32_t add_bitmap(BitmapTexture bitmap, const UvTransform& to_uv, const std::vector<float>& rgb);
   uint32_t add_texture(const Texture& t);
+
+  // Renders at width × height instead: the field of view along fov_axis
+  // stays, the other extent follows the new aspect ratio.
+  void set_resolution(int width, int height);
 
   // Bounds, emitter selection table, triangle normals; call after loading,
   // before rendering, and again after any change to the geometry (view()

@@ -300,7 +300,7 @@ void SceneBuilder::add_envmap(const SourceLoc& at, EnvmapLight l, const Image& i
 
 // ---- camera ----
 
-void SceneBuilder::set_camera(const SourceLoc& at, const Camera& cam) {
+void SceneBuilder::set_camera(const SourceLoc& at, const Camera& cam, FovAxis axis) {
   if (has_camera_) error(at, "only one camera is supported");
   if (cam.width < 1 || cam.height < 1 || cam.width > 65536 || cam.height > 65536)
     error(at, "film size must be between 1 and 65536");
@@ -317,6 +317,7 @@ void SceneBuilder::set_camera(const SourceLoc& at, const Camera& cam) {
       max_abs(cam.x_axis) + max_abs(cam.y_axis) * cam.tan_half_y + max_abs(cam.origin) > kMaxCoordinate)
     error(at, "the orthographic view reaches beyond 1e18");
   scene_.camera = cam;
+  scene_.fov_axis = axis;
   has_camera_ = true;
 }
 
@@ -329,21 +330,20 @@ void SceneBuilder::frame_bounds(int width, int height) {
   Camera cam;
   cam.width = width;
   cam.height = height;
-  cam.tan_half_x = cam.tan_half_y = t;
-  if (width > height) cam.tan_half_x = t * float(width) / float(height);
-  else cam.tan_half_y = t * float(height) / float(width);
+  fit_fov(FovAxis::Smaller, t, width, height, cam.tan_half_x, cam.tan_half_y);
   cam.origin = {c.x, c.y, scene_.bounds_max.z + half / t * 1.05f};
   if (!is_finite(cam.origin) || max_abs(cam.origin) > kMaxCoordinate)
     error({}, "the model is too large to frame (the camera would lie beyond 1e18)");
   cam.x_axis = {-1, 0, 0};
   cam.y_axis = {0, 1, 0};
   cam.z_axis = {0, 0, -1};
-  set_camera({}, cam);
+  set_camera({}, cam, FovAxis::Smaller);
 }
 
 Scene SceneBuilder::finish() {
   if (scene_.num_triangles() == 0 && scene_.spheres.empty()) error({}, "the scene has no shapes");
   if (!has_camera_) error({}, "the scene has no camera");
+  scene_.instances = num_instances_;
   scene_.compile();
   return std::move(scene_);
 }

@@ -115,7 +115,9 @@ class SceneBuilder {
   void add_envmap(const SourceLoc& at, EnvmapLight light, const Image& image, const std::string& name);
 
   // ---- camera and settings ----
-  void set_camera(const SourceLoc& at, const Camera& camera);
+  // `axis`: what the field of view was given along (kept by a later
+  // Scene::set_resolution).
+  void set_camera(const SourceLoc& at, const Camera& camera, FovAxis axis = FovAxis::X);
   bool has_camera() const { return has_camera_; }
   // A camera that frames the scene's bounds from +z (40° field of view) at
   // width × height: for formats without a camera (OBJ, PLY, glTF).

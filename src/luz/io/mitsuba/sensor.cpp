@@ -139,7 +139,12 @@ void MitsubaParser::parse_sensor(pugi::xml_node n) {
     cam.y_axis = to_world.vector({0, 1, 0});
     cam.origin = to_world.point({0, 0, float(near_clip)});
   }
-  builder_.set_camera(loc(n), cam);  // the checks every format shares
+  const FovAxis fov_axis = !projective || axis == "x" ? FovAxis::X
+                           : axis == "y"                ? FovAxis::Y
+                           : axis == "diagonal"         ? FovAxis::Diagonal
+                           : axis == "smaller"          ? FovAxis::Smaller
+                                                        : FovAxis::Larger;
+  builder_.set_camera(loc(n), cam, fov_axis);  // the checks every format shares
 }
 
 void MitsubaParser::parse_sampler(pugi::xml_node n) {

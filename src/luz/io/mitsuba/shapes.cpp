@@ -243,7 +243,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
       if (full.extension() == ".ply") {  // mesh_file's fallback: the same mesh as PLY
         read_mesh_ply(full, flip_uv, textured, pos, nrm, uv, idx);
       } else {
-        ObjMesh mesh = read_obj(full.string(), false, textured);
+        ObjMesh mesh = read_obj(full.string(), false, textured ? ObjTexcoords::Yes : ObjTexcoords::No);
         pos = std::move(mesh.positions);
         nrm = std::move(mesh.normals);
         uv = std::move(mesh.texcoords);

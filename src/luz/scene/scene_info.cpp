@@ -1,0 +1,100 @@
+#include "luz/scene/scene_info.h"
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+namespace luz {
+
+namespace {
+
+const char* light_name(LightType t) {
+  switch (t) {
+    case LightType::Triangle: return "area (triangle)";
+    case LightType::Parallelogram: return "area (parallelogram)";
+    case LightType::Sphere: return "area (sphere)";
+    case LightType::Constant: return "constant environment";
+    case LightType::Point: return "point";
+    case LightType::Spot: return "spot";
+    case LightType::Directional: return "directional";
+    case LightType::Envmap: return "envmap";
+  }
+  return "?";
+}
+
+const char* bsdf_name(BsdfType t) {
+  switch (t) {
+    case BsdfType::Diffuse: return "diffuse";
+    case BsdfType::Phong: return "phong";
+    case BsdfType::SmoothConductor: return "conductor";
+    case BsdfType::RoughConductor: return "roughconductor";
+    case BsdfType::SmoothDielectric: return "dielectric";
+    case BsdfType::RoughDielectric: return "roughdielectric";
+    case BsdfType::ThinDielectric: return "thindielectric";
+    case BsdfType::SmoothPlastic: return "plastic";
+    case BsdfType::BlinnPhong: return "blinnphong";
+    case BsdfType::Ward: return "ward";
+    case BsdfType::RoughPlastic: return "roughplastic";
+  }
+  return "?";
+}
+
+// "3 diffuse, 1 conductor" from counts by name.
+std::string by_type(const std::map<std::string, size_t>& counts) {
+  std::string s;
+  for (const auto& [name, n] : counts) s += (s.empty() ? "" : ", ") + std::to_string(n) + " " + name;
+  return s.empty() ? "none" : s;
+}
+
+std::string fmt(const char* f, double a, double b = 0, double c = 0) {
+  char buf[128];
+  std::snprintf(buf, sizeof buf, f, a, b, c);
+  return buf;
+}
+
+}  // namespace
+
+std::string describe_scene(const Scene& s) {
+  std::string out;
+  auto line = [&](const std::string& key, const std::string& value) { out += key + ": " + value + "\n"; };
+  line("shapes", std::to_string(s.num_triangles()) + " triangles, " + std::to_string(s.spheres.size()) + " spheres, " +
+                     std::to_string(s.instances) + " instances");
+  line("bounds", fmt("(%g, %g, %g)", s.bounds_min.x, s.bounds_min.y, s.bounds_min.z) + " to " +
+                     fmt("(%g, %g, %g)", s.bounds_max.x, s.bounds_max.y, s.bounds_max.z));
+  std::map<std::string, size_t> lights, materials;
+  for (const Light& l : s.lights) ++lights[light_name(l.type)];
+  for (const Material& m : s.materials) {
+    std::string name = bsdf_name(m.bsdf.type);
+    if (m.bsdf.blend) name = "blend";
+    else if (m.bsdf.two_sided) name += " (two-sided)";
+    if (m.num_bindings > 0) name += " (textured)";
+    if (m.masked()) name += " (masked)";
+    ++materials[name];
+  }
+  line("lights", std::to_string(s.lights.size()) + ": " + by_type(lights));
+  line("materials", std::to_string(s.materials.size()) + ": " + by_type(materials));
+  line("textures", std::to_string(s.textures.size()));
+  const Camera& c = s.camera;
+  const char* cam = c.type == CameraType::ThinLens ? "thin lens" : c.type == CameraType::Orthographic ? "orthographic" : "perspective";
+  std::string camera = std::string(cam) + fmt(" at (%g, %g, %g)", c.origin.x, c.origin.y, c.origin.z) +
+                       fmt(" looking along (%g, %g, %g)", c.z_axis.x, c.z_axis.y, c.z_axis.z);
+  if (c.type != CameraType::Orthographic)
+    camera += fmt(", field of view %.4g° × %.4g°", 2 * std::atan(c.tan_half_x) * 180 / M_PI,
+                  2 * std::atan(c.tan_half_y) * 180 / M_PI);
+  if (c.type == CameraType::ThinLens)
+    camera += fmt(", aperture radius %g, focus distance %g", c.lens.aperture_radius, c.lens.focus_distance);
+  line("camera", camera);
+  const RenderSettings& r = s.settings;
+  const char* filter = r.filter == FilterKind::Box ? "box" : r.filter == FilterKind::Tent ? "tent" : "gaussian";
+  line("film", std::to_string(c.width) + "×" + std::to_string(c.height) + ", " + filter + " filter");
+  const char* integ = r.integrator.type == IntegratorType::Path ? "path" : r.integrator.type == IntegratorType::Bsdf ? "bsdf" : "light";
+  line("integrator", std::string(integ) + ", max depth " +
+                         (r.integrator.max_depth < 0 ? std::string("unbounded") : std::to_string(r.integrator.max_depth)));
+  const char* sampler = r.sampler == SamplerType::Independent ? "independent" : r.sampler == SamplerType::Stratified ? "stratified" : "sobol";
+  line("sampler", std::string(sampler) + ", " + std::to_string(r.spp) + " spp, seed " + std::to_string(r.seed));
+  line("warnings", std::to_string(s.warnings.size()));
+  for (const std::string& w : s.warnings) out += "  " + w + "\n";
+  return out;
+}
+
+}  // namespace luz

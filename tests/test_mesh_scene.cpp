@@ -1,0 +1,148 @@
+// Mesh files as scenes (OBJ, PLY) and a scene rendered at another size.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "scene_helpers.h"
+#include "luz/io/image.h"
+#include "temp_dir.h"
+
+namespace {
+
+const std::string kBunny = LUZ_SHARED_DIR "/scenes/bunny/bun_zipper.ply";
+
+// The bunny as a scene: all its triangles, a camera that frames it, the
+// white sky announced by one warning, and an image with no lost sample in
+// which the bunny covers the centre (darker than the sky around it).
+TEST(MeshScene, PlyRendersUnderAWhiteSky) {
+  luz::Scene s = luz::load_scene(kBunny);
+  EXPECT_EQ(s.num_triangles(), 69451u);
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("bun_zipper.ply: warning: no light in the file"), std::string::npos) << s.warnings[0];
+  ASSERT_EQ(s.lights.size(), 1u);
+  EXPECT_EQ(s.lights[0].type, luz::LightType::Constant);
+  s.set_resolution(32, 32);
+  s.settings.spp = 4;
+  luz::Film f = luz_test::render_finite(s);
+  const std::vector<float> img = f.mean();
+  auto at = [&](int x, int y) { return img[3 * size_t(y * 32 + x) + 1]; };
+  EXPECT_EQ(at(0, 0), 1.f);           // the sky, seen directly: radiance 1
+  EXPECT_LT(at(16, 18), 0.9f);        // the bunny: a diffuse 0.5 surface under it
+}
+
+// set_resolution keeps the field of view along the scene's axis and refits
+// the other; at the same aspect ratio it changes nothing but the pixel count.
+TEST(MeshScene, SetResolutionKeepsTheFieldOfViewAxis) {
+  luz::Scene s;
+  s.camera.width = 400, s.camera.height = 200;
+  for (luz::FovAxis axis : {luz::FovAxis::X, luz::FovAxis::Y, luz::FovAxis::Diagonal, luz::FovAxis::Smaller,
+                            luz::FovAxis::Larger}) {
+    s.fov_axis = axis;
+    s.camera.width = 400, s.camera.height = 200;
+    luz::fit_fov(axis, 0.5, 400, 200, s.camera.tan_half_x, s.camera.tan_half_y);
+    const float x0 = s.camera.tan_half_x, y0 = s.camera.tan_half_y;
+    s.set_resolution(800, 400);
+    EXPECT_FLOAT_EQ(s.camera.tan_half_x, x0);
+    EXPECT_FLOAT_EQ(s.camera.tan_half_y, y0);
+    s.set_resolution(100, 300);
+    EXPECT_EQ(s.camera.width, 100);
+    EXPECT_EQ(s.camera.height, 300);
+    EXPECT_FLOAT_EQ(s.camera.tan_half_x / s.camera.tan_half_y, 100.f / 300.f);
+    const double diag = std::hypot(double(s.camera.tan_half_x), double(s.camera.tan_half_y));
+    switch (axis) {
+      case luz::FovAxis::X: EXPECT_FLOAT_EQ(s.camera.tan_half_x, x0); break;
+      case luz::FovAxis::Y: EXPECT_FLOAT_EQ(s.camera.tan_half_y, y0); break;
+      case luz::FovAxis::Diagonal: EXPECT_NEAR(diag, 0.5, 1e-6); break;
+      case luz::FovAxis::Smaller: EXPECT_FLOAT_EQ(s.camera.tan_half_x, 0.5f); break;  // was y, now x
+      case luz::FovAxis::Larger: EXPECT_FLOAT_EQ(s.camera.tan_half_y, 0.5f); break;
+    }
+  }
+}
+
+class MeshSceneFiles : public TempDirTest {};
+
+// A PLY scene's errors come from the reader, naming the file.
+TEST_F(MeshSceneFiles, BadPlyIsRefused) {
+  const std::string p = write("bad.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n1\n");
+  luz_test::expect_load_refused(p, "bad.ply", "face");
+}
+
+}  // namespace
+
+namespace {
+
+// An MTL's illum models, constants and maps as Luz materials.
+TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {
+  write("m.mtl",
+        "newmtl mirror\nKd 0.01 0.01 0.01\nKs 0.9 0.8 0.7\nillum 5\n"
+        "newmtl glass\nKs 0.3 0.3 0.3\nTf 0.5 0.6 0.7\nNi 1.7\nillum 7\n"
+        "newmtl cut\nKd 0.4 0.4 0.4\nd 0.25\n");
+  const std::string obj = write("m.obj",
+                                "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl mirror\nf 1 2 3\n"
+                                "usemtl glass\nf 1 3 2\nusemtl cut\nf 1 2 3\n");
+  luz::Scene s = luz::load_scene(obj);
+  ASSERT_GE(s.materials.size(), 3u);
+  const luz::Bsdf& mirror = s.materials[0].bsdf;
+  EXPECT_EQ(mirror.type, luz::BsdfType::SmoothConductor);
+  EXPECT_FLOAT_EQ(mirror.smooth_conductor.specular_reflectance.y, 0.8f);
+  const luz::Bsdf& glass = s.materials[1].bsdf;
+  EXPECT_EQ(glass.type, luz::BsdfType::SmoothDielectric);
+  EXPECT_FLOAT_EQ(glass.smooth_dielectric.specular_transmittance.z, 0.7f);
+  EXPECT_FLOAT_EQ(glass.smooth_dielectric.specular_reflectance.x, 0.3f);
+  EXPECT_FLOAT_EQ(glass.smooth_dielectric.eta, 1.7f);
+  const luz::Material& cut = s.materials[2];
+  EXPECT_EQ(cut.bsdf.type, luz::BsdfType::Diffuse);
+  EXPECT_FLOAT_EQ(cut.opacity, 0.25f);
+}
+
+// A missing mtllib and an unknown usemtl are warnings at their lines.
+TEST_F(MeshSceneFiles, MissingMaterialsAreWarnings) {
+  const std::string obj = write("w.obj", "mtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl ghost\nf 1 2 3\n");
+  luz::Scene s = luz::load_scene(obj);
+  ASSERT_GE(s.warnings.size(), 2u);
+  EXPECT_NE(s.warnings[0].find("w.obj:1: warning: mtllib 'none.mtl' not found"), std::string::npos) << s.warnings[0];
+  EXPECT_NE(s.warnings[1].find("w.obj:5: warning: usemtl 'ghost': no such material"), std::string::npos)
+      << s.warnings[1];
+}
+
+// map_Kd on a quad facing the camera under the white sky: the image's black
+// left half gives exactly black pixels (reflectance 0), its white right half
+// lit ones, on the sides the texture coordinates put them. Without texture
+// coordinates the map is dropped with a warning.
+TEST_F(MeshSceneFiles, MapKdFollowsTheTextureCoordinates) {
+  luz::Image tex{16, 1, {}};
+  for (int x = 0; x < 16; ++x) tex.rgb.insert(tex.rgb.end(), 3, x < 8 ? 0.f : 1.f);
+  luz::write_image((dir / "t.png").string(), tex);
+  write("t.mtl", "newmtl tex\nKd 1 1 1\nmap_Kd t.png\n");
+  // frame_bounds looks down -z with the image's left at world -x; u = 0 at
+  // world x = +1, so the texture's black left half lands on the image's right.
+  const std::string quad = "mtllib t.mtl\nv 1 -1 0\nv -1 -1 0\nv -1 1 0\nv 1 1 0\n";
+  const std::string obj = write("t.obj", quad + "vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl tex\nf 1/1 2/2 3/3 4/4\n");
+  luz::Scene s = luz::load_scene(obj);
+  ASSERT_EQ(s.materials[0].num_bindings, 1u);
+  s.set_resolution(32, 32);
+  s.settings.spp = 4;
+  const std::vector<float> img = luz_test::render_finite(s).mean();
+  auto px = [&](int x, int y) { return img[3 * size_t(y * 32 + x)]; };
+  for (int x = 20; x < 27; ++x) EXPECT_EQ(px(x, 16), 0.f) << x;
+  for (int x = 5; x < 12; ++x) EXPECT_GT(px(x, 16), 0.2f) << x;
+
+  const std::string bare = write("b.obj", quad + "usemtl tex\nf 1 2 3 4\n");
+  luz::Scene b = luz::load_scene(bare);
+  EXPECT_EQ(b.materials[0].num_bindings, 0u);
+  bool warned = false;
+  for (const std::string& w : b.warnings) warned |= w.find("texture maps are ignored") != std::string::npos;
+  EXPECT_TRUE(warned);
+}
+
+// Bad MTL values are refused at their line.
+TEST_F(MeshSceneFiles, BadMtlValues) {
+  write("bad.mtl", "newmtl a\nd 1.5\n");
+  const std::string obj = write("bad.obj", "mtllib bad.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n");
+  luz_test::expect_load_refused(obj, "bad.mtl:2", "'d': '1.5' must lie in [0, 1]");
+  write("ni.mtl", "newmtl a\nNi 0\n");
+  const std::string obj2 = write("ni.obj", "mtllib ni.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n");
+  luz_test::expect_load_refused(obj2, "ni.mtl:2", "'Ni': '0' must be positive");
+}
+
+}  // namespace
