@@ -190,10 +190,8 @@ TEST_F(Cli, MalformedXmlGarbage) {
 TEST_F(Cli, UnknownPlugins) {
   expect_bad_scene(replace(kScene, "<bsdf type=\"diffuse\" id=\"floor\">", "<bsdf type=\"foo\" id=\"floor\">"),
                    "<bsdf type=\"foo\"", "unknown bsdf 'foo'");
-  expect_bad_scene(replace(kScene, "<shape type=\"rectangle\">", "<shape type=\"ply\">"), "<shape type=\"ply\">",
-                   "unknown shape 'ply'");
-  expect_bad_scene(replace(kScene, "<integrator type=\"path\">", "<integrator type=\"volpath\">"),
-                   "<integrator type=\"volpath\">", "unknown integrator 'volpath'");
+  expect_bad_scene(replace(kScene, "<shape type=\"rectangle\">", "<shape type=\"bsplinecurve\">"),
+                   "<shape type=\"bsplinecurve\">", "unknown shape 'bsplinecurve'");
   expect_bad_scene(replace(kScene, "<rfilter type=\"box\"/>", "<rfilter type=\"lanczos\"/>"), "<rfilter",
                    "unknown rfilter 'lanczos'");
   expect_bad_scene(replace(kScene, "<sampler type=\"independent\">", "<sampler type=\"multijitter\">"), "<sampler",

@@ -65,7 +65,7 @@ luz::Defines parse_defines(const std::vector<std::string>& defs) {
 int render(const std::string& scene_path, std::vector<std::string> outs, int spp, int threads, long long seed, int max_depth,
            const std::string& sampler, const std::string& integrator, const std::string& light_sampler,
            const std::string& device, double time_limit, const std::string& res, double scale,
-           const std::vector<std::string>& defs) {
+           const std::vector<std::string>& defs, const std::vector<std::string>& search) {
   const luz::Defines defines = parse_defines(defs);
   if (outs.empty()) outs.push_back(std::filesystem::path(scene_path).stem().string() + ".exr");
   for (const std::string& out : outs) check_output(out);
@@ -81,7 +81,7 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
   }
 
   const auto load_start = std::chrono::steady_clock::now();
-  luz::Scene scene = luz::load_scene(scene_path, defines);
+  luz::Scene scene = luz::load_scene(scene_path, defines, search);
   const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
   // Another size: --res WxH, or --scale F of the scene's own.
   if (!res.empty() || scale > 0) {
@@ -143,7 +143,7 @@ int render(const std::string& scene_path, std::vector<std::string> outs, int spp
   luz::Image img{film.width, film.height, film.mean()};
   std::string written;
   for (const std::string& out : outs) {
-    luz::write_image(out, img);
+    luz::write_image(out, img, scene.settings.exr_format);
     written += (written.empty() ? "" : ", ") + out;
   }
   std::printf("luz: %.3f s, %.3f Msamples/s, %.2f Mrays/s, %llu non-finite samples discarded, wrote %s\n",
@@ -164,7 +164,7 @@ int main(int argc, char** argv) {
   long long seed = -1;
   double time_limit = 0, scale = 0;
   std::string res;
-  std::vector<std::string> defines;
+  std::vector<std::string> defines, search;
   rc->add_option("scene", scene, "scene file (.xml, .pbrt, .gltf, .glb, .obj or .ply)")->required();
   rc->add_option("-o,--output", outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
       ->allow_extra_args(false);
@@ -219,6 +219,8 @@ int main(int argc, char** argv) {
           },
           "SECONDS"));
   rc->add_option("-D", defines, "override a scene <default>: name=value")->allow_extra_args(false);
+  rc->add_option("-a", search, "a folder where files a Mitsuba scene names are also looked for (as Mitsuba's -a)")
+      ->allow_extra_args(false);
   CLI::App* ic = app.add_subcommand("info", "what a scene holds, without rendering: shapes, lights, materials, camera, warnings");
   std::string info_scene;
   std::vector<std::string> info_defines;
@@ -244,7 +246,7 @@ int main(int argc, char** argv) {
       return 0;
     }
     return render(scene, outs, spp, threads, seed, max_depth, sampler, integrator, light_sampler, device, time_limit, res, scale,
-                  defines);
+                  defines, search);
   } catch (const luz::InputError& e) {
     if (e.file().empty())
       std::fprintf(stderr, "luz: error: %s\n", e.problem().c_str());

@@ -1,5 +1,6 @@
 #include "luz/io/image.h"
 
+#include <Imath/half.h>
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -35,18 +36,34 @@ std::string extension(const std::string& path) {
   return e;
 }
 
-void write_exr_file(const std::string& path, const Image& img) {
+void write_exr_file(const std::string& path, const Image& img, const ExrFormat& fmt) {
+  // Rows of the 3×3 map from linear sRGB (Rec. 709 primaries, D65) to CIE XYZ.
+  static constexpr float kXyz[3][3] = {
+      {0.412453f, 0.357580f, 0.180423f}, {0.212671f, 0.715160f, 0.072169f}, {0.019334f, 0.119193f, 0.950227f}};
+  static const char* kNames[3][3] = {{"R", "G", "B"}, {"Y", "", ""}, {"X", "Y", "Z"}};
+  const int format = int(fmt.channels), channels = fmt.channels == ExrChannels::Luminance ? 1 : 3;
+  const size_t pixels = size_t(img.width) * size_t(img.height);
+  std::vector<float> values(pixels * size_t(channels));
+  for (size_t i = 0; i < pixels; ++i)
+    for (int c = 0; c < channels; ++c) {
+      const float* rgb = &img.rgb[3 * i];
+      const int row = fmt.channels == ExrChannels::Luminance ? 1 : c;
+      values[i * size_t(channels) + size_t(c)] =
+          fmt.channels == ExrChannels::Rgb ? rgb[c] : kXyz[row][0] * rgb[0] + kXyz[row][1] * rgb[1] + kXyz[row][2] * rgb[2];
+    }
+  std::vector<Imath::half> halves(fmt.half ? values.size() : 0);
+  for (size_t i = 0; i < halves.size(); ++i) halves[i] = Imath::half(values[i]);
+  const Imf::PixelType type = fmt.half ? Imf::HALF : Imf::FLOAT;
+  const size_t size = fmt.half ? sizeof(Imath::half) : sizeof(float);
+  char* base = fmt.half ? reinterpret_cast<char*>(halves.data()) : reinterpret_cast<char*>(values.data());
   Imf::Header header(img.width, img.height);
-  header.channels().insert("R", Imf::Channel(Imf::FLOAT));
-  header.channels().insert("G", Imf::Channel(Imf::FLOAT));
-  header.channels().insert("B", Imf::Channel(Imf::FLOAT));
-  Imf::OutputFile file(path.c_str(), header);
   Imf::FrameBuffer fb;
-  const size_t xs = 3 * sizeof(float), ys = xs * img.width;
-  char* base = reinterpret_cast<char*>(const_cast<float*>(img.rgb.data()));
-  fb.insert("R", Imf::Slice(Imf::FLOAT, base, xs, ys));
-  fb.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xs, ys));
-  fb.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xs, ys));
+  const size_t xs = size_t(channels) * size, ys = xs * size_t(img.width);
+  for (int c = 0; c < channels; ++c) {
+    header.channels().insert(kNames[format][c], Imf::Channel(type));
+    fb.insert(kNames[format][c], Imf::Slice(type, base + size_t(c) * size, xs, ys));
+  }
+  Imf::OutputFile file(path.c_str(), header);
   file.setFrameBuffer(fb);
   file.writePixels(img.height);
 }
@@ -103,7 +120,7 @@ bool is_supported_image_extension(const std::string& path) {
   return e == ".exr" || e == ".pfm" || e == ".png";
 }
 
-void write_image(const std::string& path, const Image& img) {
+void write_image(const std::string& path, const Image& img, const ExrFormat& exr) {
   std::string e = extension(path);
   if (!is_supported_image_extension(path))
     throw InputError(path, 0, "unknown image format '" + e + "' (use .exr, .pfm or .png)");
@@ -115,7 +132,7 @@ void write_image(const std::string& path, const Image& img) {
       (std::filesystem::path(path).parent_path() / (".luz-" + std::to_string(::getpid()) + ".part" + e)).string();
   try {
     if (e == ".exr")
-      write_exr_file(tmp, img);
+      write_exr_file(tmp, img, exr);
     else if (e == ".pfm")
       write_pfm_file(tmp, img);
     else

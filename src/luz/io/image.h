@@ -25,8 +25,18 @@ struct Image8 {
 bool is_supported_image_extension(const std::string& path);
 // JPEG, PNG, TGA or BMP through stb_image; throws InputError naming the path.
 Image8 read_image8(const std::string& path);
+// How an OpenEXR output is written (Mitsuba's hdrfilm pixel_format and
+// component_format): its channels (R G B; Y, the luminance; or X Y Z, CIE
+// 1931 from linear sRGB primaries) and their type (32- or 16-bit float).
+// PFM and PNG outputs are RGB whatever it says.
+enum class ExrChannels { Rgb, Luminance, Xyz };
+struct ExrFormat {
+  ExrChannels channels = ExrChannels::Rgb;
+  bool half = false;
+};
+
 // Throws InputError naming the path on failure.
-void write_image(const std::string& path, const Image& img);
+void write_image(const std::string& path, const Image& img, const ExrFormat& exr = {});
 Image read_exr(const std::string& path);
 Image read_pfm(const std::string& path);
 // A linear float RGB image from OpenEXR, PFM, Radiance HDR, or an 8-bit

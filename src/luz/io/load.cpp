@@ -17,12 +17,13 @@ std::string lower_extension(const std::string& path) {
 
 }  // namespace
 
-Scene load_scene(const std::string& path, const Defines& defines) {
+Scene load_scene(const std::string& path, const Defines& defines, const std::vector<std::string>& search_paths) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw InputError(path, 0, "cannot open file: no such file");
   const std::string e = lower_extension(path);
-  if (e == ".xml") return load_mitsuba(path, defines);
+  if (e == ".xml") return load_mitsuba(path, defines, search_paths);
   if (!defines.empty()) throw InputError(path, 0, "-D applies to Mitsuba XML scenes only");
+  if (!search_paths.empty()) throw InputError(path, 0, "-a applies to Mitsuba XML scenes only");
   if (e == ".obj") return load_obj_scene(path);
   if (e == ".ply") return load_ply_scene(path);
   if (e == ".pbrt") return load_pbrt(path);

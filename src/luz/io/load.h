@@ -5,6 +5,7 @@
 
 #include <map>
 #include <string>
+#include <vector>
 
 #include "luz/scene/scene.h"
 
@@ -13,8 +14,11 @@ namespace luz {
 using Defines = std::map<std::string, std::string>;
 
 // By extension: .xml (Mitsuba), .pbrt (pbrt-v4), .gltf and .glb (glTF 2.0: io/gltf.h), .obj (OBJ/MTL), .ply.
-Scene load_scene(const std::string& path, const Defines& defines = {});
-Scene load_mitsuba(const std::string& path, const Defines& defines = {});
+// `search_paths`: folders where files a Mitsuba scene names are looked for
+// when they are not beside it (Mitsuba's -a).
+Scene load_scene(const std::string& path, const Defines& defines = {}, const std::vector<std::string>& search_paths = {});
+Scene load_mitsuba(const std::string& path, const Defines& defines = {},
+                   const std::vector<std::string>& search_paths = {});
 // A mesh file as a scene (mesh_scene.cpp).
 Scene load_obj_scene(const std::string& path);
 Scene load_ply_scene(const std::string& path);

@@ -7,6 +7,7 @@
 
 #include "luz/film/filter.h"
 #include "luz/integrator/path.h"
+#include "luz/io/image.h"
 #include "luz/sampling/sampler.h"
 #include "luz/scene/scene_view.h"
 
@@ -20,6 +21,7 @@ struct RenderSettings {
   FilterKind filter = FilterKind::Box;
   // Power by default: it measured the more efficient on bench/manylight.
   LightSamplerType light_sampler = LightSamplerType::Power;
+  ExrFormat exr_format;  // how .exr outputs are written (Mitsuba's hdrfilm formats)
 };
 
 // Which extent of the film a field of view is given along (Mitsuba's

@@ -1,5 +1,6 @@
 // The Mitsuba reader's bsdfs: every model, its parameters and the adapters (twosided, blendbsdf, mask, normalmap, bumpmap) (see parser.h).
 #include <cmath>
+#include <cstdio>
 
 #include "luz/io/mitsuba/parser.h"
 
@@ -144,6 +145,7 @@ ParsedBsdf MitsubaParser::parse_bsdf_element(pugi::xml_node n) {
     b.bump_scale = scale;
     return b;
   }
+  if (type == "coating") return parse_coating(n);
   if (type == "mask") {
     // Mitsuba 3's mask: `opacity` (a number or a texture's luminance, in
     // [0, 1]) over one nested bsdf, traced as alpha-tested geometry
@@ -320,6 +322,61 @@ ParsedBsdf MitsubaParser::parse_bsdf_element(pugi::xml_node n) {
   }
   p.check_all_used();
   return out;
+}
+
+// Mitsuba 0.5's coating: a smooth dielectric layer (int_ior, ext_ior,
+// thickness, sigma_a, specular_reflectance) over one nested bsdf. Luz has no
+// layered model; the nearest one is taken:
+//  - over diffuse: plastic, which is that layer without absorption (the
+//    diffuse reflectance tinted by the absorption of a normal-incidence
+//    crossing, in and out: exp(-2 sigma_a thickness));
+//  - over a conductor or roughconductor: that conductor, its
+//    specular_reflectance scaled by the light that crosses the coat twice at
+//    normal incidence, (1 - F0)^2 exp(-2 sigma_a thickness). The coat's own
+//    mirror reflection (F0, 6.7% for an index of 1.7) and the narrowing of the
+//    lobe by refraction are missing: a warning says so.
+ParsedBsdf MitsubaParser::parse_coating(pugi::xml_node n) {
+  check_children(n, {"bsdf", "ref"});
+  Props p(this, n);
+  const float int_ior = ior(n, p, "int_ior", "bk7"), ext_ior = ior(n, p, "ext_ior", "air");
+  const double thickness = p.get_float("thickness", 1.0);
+  const Color sigma_a = p.get_color("sigma_a", {0, 0, 0});
+  const Color spec = checked_reflectance(n, p, "specular_reflectance", {1, 1, 1});
+  p.check_all_used();
+  if (!(thickness >= 0.0)) error(n, "coating thickness must be ≥ 0");
+  for (int k = 0; k < 3; ++k)
+    if (!(sigma_a[k] >= 0.f)) error(n, "coating sigma_a must be ≥ 0");
+  std::vector<pugi::xml_node> inner = nested_bsdf_nodes(n);
+  if (inner.size() != 1) error(n, "coating needs exactly one nested bsdf");
+  ParsedBsdf b = nested_bsdf(inner[0]);
+  Color tint;
+  for (int k = 0; k < 3; ++k) tint[k] = float(std::exp(-2.0 * sigma_a[k] * thickness));
+  if (b.bsdf.blend || b.bsdf.has_back || b.masked() || b.has_map())
+    error(inner[0], "a coating over a blendbsdf, a two-sided pair, a mask or a map is not supported");
+  if (b.bsdf.type == BsdfType::Diffuse) {
+    for (const TextureBinding& t : b.bindings)
+      if (t.param == BsdfParam::Reflectance && max_component(sigma_a) > 0.f)
+        error(inner[0], "a coating with sigma_a over a textured diffuse is not supported");
+    for (TextureBinding& t : b.bindings)
+      if (t.param == BsdfParam::Reflectance) t.param = BsdfParam::DiffuseReflectance;
+    b.bsdf = Bsdf::make_smooth_plastic(b.bsdf.diffuse.reflectance * tint, spec, int_ior, ext_ior, b.bsdf.two_sided);
+    return b;
+  }
+  if (b.bsdf.type != BsdfType::SmoothConductor && b.bsdf.type != BsdfType::RoughConductor)
+    error(inner[0], "a coating is supported over diffuse, conductor and roughconductor only");
+  for (const TextureBinding& t : b.bindings)
+    if (t.param == BsdfParam::SpecularReflectance)
+      error(inner[0], "a coating over a textured specular_reflectance is not supported");
+  const double f0 = std::pow((int_ior - ext_ior) / (int_ior + ext_ior), 2.0);
+  Color& r = b.bsdf.type == BsdfType::SmoothConductor ? b.bsdf.smooth_conductor.specular_reflectance
+                                                       : b.bsdf.rough_conductor.specular_reflectance;
+  r = r * tint * float((1.0 - f0) * (1.0 - f0));
+  char percent[32];
+  std::snprintf(percent, sizeof percent, "%.1f%%", 100.0 * f0);
+  builder_.warn(loc(n), std::string("coating over a conductor is rendered as the conductor seen through the coat at "
+                                    "normal incidence (the coat's own reflection, ") +
+                            percent + " at normal incidence, is missing)");
+  return b;
 }
 
 ParsedBsdf MitsubaParser::parse_bsdf_value(pugi::xml_node n) {

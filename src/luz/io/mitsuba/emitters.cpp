@@ -102,7 +102,7 @@ void MitsubaParser::parse_envmap(pugi::xml_node n, Props& p) {
   Matrix4 to_world = p.get_transform("to_world");
   p.check_all_used();
   if (!(scale >= 0.0) || !std::isfinite(scale)) error(n, "scale must be finite and not negative");
-  const fs::path full = scene_file(n, file, "envmap");
+  const fs::path full = resolve_file(n, file, "envmap");
   Image img;
   try {
     img = read_image_linear(full.string());

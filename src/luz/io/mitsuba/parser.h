@@ -1,13 +1,32 @@
 // Mitsuba XML scenes (Mitsuba 3, and 0.5/0.6 with camelCase names): the
 // parser, one class whose parts live one file per plugin family:
-//   xml.cpp       reading, <default>/$params, Props, transforms, names, errors
+//   xml.cpp       reading, <default>/$params, <include>, Props, transforms,
+//                 names (camelCase upgrade), errors
 //   sensor.cpp    integrator, sensor, sampler, film
 //   bsdfs.cpp     bsdfs and their parameters
-//   textures.cpp  textures and files named by the scene
+//   textures.cpp  textures, and the files a scene names (-a search folders)
 //   emitters.cpp  top-level emitters
-//   shapes.cpp    shapes and their area emitters
-// Anything unsupported is an error naming file and line: a renderer that
-// silently ignores what it does not know renders the wrong image.
+//   shapes.cpp    shapes, their area emitters, shapegroup and instance
+// Supported: integrators path, bsdf, light (volpath, volpathmis and direct
+// as path; others as path with a warning); sensors perspective, thinlens,
+// orthographic; samplers independent, stratified, sobol/ldsampler; hdrfilm
+// and ldrfilm with box, tent and gaussian rfilters; shapes obj, ply,
+// serialized, rectangle, cube, disk, cylinder, sphere, shapegroup, instance;
+// emitters area, constant, envmap, point, spot, directional; bsdfs diffuse,
+// phong, blinnphong, conductor, roughconductor, dielectric, roughdielectric,
+// thindielectric, plastic, roughplastic, ward, coating, blendbsdf, twosided,
+// mask, normalmap, bumpmap; textures bitmap and checkerboard; <ref> to
+// bsdfs, textures and shapegroups. Anything else is an error naming file and
+// line: a renderer that silently ignores what it does not know renders the
+// wrong image.
+//
+// Names of Mitsuba 0.5/0.6 are upgraded as Mitsuba 3's own upgrade does
+// (camel_case_name: every parameter name, toWorld -> to_world, intIOR ->
+// int_ior); the exceptions it also makes are the <lookAt> tag and a
+// texture's uscale/vscale/uoffset/voffset (textures.cpp). The 0.5/0.6 names
+// of the parameters Luz reads all follow the rule (alphaU -> alpha_u,
+// shapeIndex -> shape_index, emitterSamples -> emitter_samples, sigmaA ->
+// sigma_a, maxSmoothAngle -> max_smooth_angle): no table of exceptions.
 #pragma once
 
 #include <pugixml.hpp>
@@ -15,6 +34,7 @@
 #include <filesystem>
 #include <initializer_list>
 #include <map>
+#include <memory>
 #include <set>
 #include <string>
 #include <vector>
@@ -34,7 +54,8 @@ using ParsedBsdf = MaterialDesc;
 
 class MitsubaParser {
  public:
-  MitsubaParser(const std::string& path, const Defines& defines) : path_(path), defines_(defines) {}
+  MitsubaParser(const std::string& path, const Defines& defines, std::vector<std::string> search_paths = {})
+      : path_(path), defines_(defines), search_paths_(std::move(search_paths)) {}
   Scene parse();
 
   // ---- properties of one plugin element ----
@@ -115,6 +136,7 @@ class MitsubaParser {
   // second or a two-sided back).
   static void move_part(std::vector<TextureBinding>& b, BsdfPart from, BsdfPart to);
   ParsedBsdf parse_bsdf_element(pugi::xml_node n);
+  ParsedBsdf parse_coating(pugi::xml_node n);
   // A bsdf element as a value; one with an id becomes a material that <ref>s
   // name, nested ones too (as in Mitsuba, where the staircase's bumpmap
   // wraps the bsdf its shapes refer to).
@@ -140,8 +162,6 @@ class MitsubaParser {
   uint32_t resolve_ref(pugi::xml_node r);
 
   // ---- textures and files (textures.cpp) ----
-  // A file named relative to the scene file; it must be a regular file.
-  fs::path scene_file(pugi::xml_node n, const std::string& file, const char* what) const;
   // A texture's to_uv (Mitsuba 3: the upper-left 3×3 of the transform, an
   // affine map of uv) or Mitsuba 0.5's uscale, vscale, uoffset, voffset.
   UvTransform uv_transform(pugi::xml_node t, Props& p);
@@ -165,8 +185,25 @@ class MitsubaParser {
   // file; OpenEXR, Radiance HDR, PFM, or 8-bit sRGB), scale, to_world.
   void parse_envmap(pugi::xml_node n, Props& p);
 
+  // A file the scene names, as Mitsuba's file resolver finds it: relative
+  // to the file being read, then in each search folder (-a); it must be a
+  // regular file.
+  fs::path resolve_file(pugi::xml_node n, const std::string& file, const char* what) const;
+  // A mesh file; a missing .obj is replaced, with a warning, by a .ply of the
+  // same name where one is found (Bitterli's scenes ship both forms).
+  fs::path mesh_file(pugi::xml_node n, const std::string& file, const std::string& type);
+  // <include filename="...">: the file's elements as if written here.
+  void parse_include(pugi::xml_node n);
+  void parse_top_level(pugi::xml_node parent);
+  bool scene_version_legacy(pugi::xml_node root);
+
   // ---- shapes (shapes.cpp) ----
   void parse_shape(pugi::xml_node n);
+  void parse_shapegroup(pugi::xml_node n);
+  void parse_instance(pugi::xml_node n);
+  void add_shape(pugi::xml_node n, int64_t object);
+  static void read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, std::vector<Vec3>& pos,
+                            std::vector<Vec3>& nrm, std::vector<Vec2>& uv, std::vector<uint32_t>& idx);
 
   std::string path_;
   Defines defines_;
@@ -175,6 +212,13 @@ class MitsubaParser {
   pugi::xml_document doc_;
   std::map<std::string, uint32_t> bsdfs_;
   std::map<std::string, uint32_t> textures_;  // top-level <texture id>, by id
+  std::map<std::string, uint32_t> shapegroups_;  // the builder's objects, by id
+  std::map<std::string, std::vector<uint8_t>> serialized_files_;  // by path
+  std::vector<std::string> search_paths_;
+  std::vector<std::unique_ptr<pugi::xml_document>> included_;  // kept: nodes point into them
+  std::vector<std::string> include_stack_;  // files being read, outermost first
+  bool have_sensor_ = false, have_integrator_ = false;
+  bool warned_smooth_angle_ = false;
   SceneBuilder builder_{path_};
   bool legacy_names_ = false;  // a Mitsuba 0.5/0.6 scene: camelCase parameter names
   int bsdf_depth_ = 0;

@@ -5,17 +5,54 @@
 
 namespace luz::mitsuba {
 
+// Mitsuba's integrators by the nearest Luz estimator: path, bsdf and light
+// as themselves; volpath and volpathmis as path (Luz has no media, and a
+// scene with a <medium> is refused where it names one); direct as path with
+// max_depth 2 (the same expectation: emitters seen directly plus one bounce
+// of direct light, MIS-weighted); any other (irrcache, photonmapper, bdpt,
+// a mirror's path_guiding_integrator, ...) as path with a warning, since
+// every Mitsuba integrator estimates the same image, only with other noise.
 void MitsubaParser::parse_integrator(pugi::xml_node n) {
-  std::string type = attr(n, "type");
+  const std::string type = attr(n, "type");
   IntegratorParams& ip = builder_.settings().integrator;
-  if (type == "path") ip.type = IntegratorType::Path;
-  else if (type == "bsdf") ip.type = IntegratorType::Bsdf;
-  else if (type == "light") ip.type = IntegratorType::Light;
-  else error(n, "unknown integrator '" + type + "' (supported: path, bsdf, light)");
+  const bool known = type == "path" || type == "bsdf" || type == "light" || type == "volpath" ||
+                     type == "volpathmis" || type == "direct";
+  if (!known) {
+    // Its parameters and nested integrators mean nothing to path: only a
+    // max_depth (its own or a nested integrator's) is kept.
+    ip.type = IntegratorType::Path;
+    ip.max_depth = -1;
+    for (pugi::xml_node c = n; c; c = c.child("integrator"))
+      for (pugi::xml_node q : c.children("integer"))
+        if (param_name(q) == "max_depth" && ip.max_depth == -1) {
+          const double d = number(q, attr(q, "value"));
+          if (d == std::floor(d) && (d == -1 || (d >= 1 && d <= 1e9))) ip.max_depth = int(d);
+        }
+    builder_.warn(loc(n), "integrator '" + type + "' is not supported: rendered with path (max_depth " +
+                              std::to_string(ip.max_depth) + ")");
+    return;
+  }
   check_children(n, {});
   Props p(this, n);
-  ip.max_depth = int(p.get_int("max_depth", -1));
-  ip.rr_depth = int(p.get_int("rr_depth", 5));
+  ip.type = type == "bsdf" ? IntegratorType::Bsdf : type == "light" ? IntegratorType::Light : IntegratorType::Path;
+  if (type == "direct") {
+    // Mitsuba's direct spends emitter_samples light samples and bsdf_samples
+    // bsdf samples at each camera ray's hit; path with max_depth 2 takes one
+    // of each per sample: the same expectation, the noise of fewer samples.
+    const long emitter_samples = p.get_int("emitter_samples", 1), bsdf_samples = p.get_int("bsdf_samples", 1);
+    p.get_int("shading_samples", 1);  // Mitsuba 0.5: both counts at once
+    if (emitter_samples < 0 || bsdf_samples < 0) error(n, "emitter_samples and bsdf_samples must be ≥ 0");
+    ip.max_depth = 2;
+    ip.rr_depth = 5;
+    if (emitter_samples != 1 || bsdf_samples != 1)
+      builder_.warn(loc(n), "integrator 'direct' is rendered as path with max_depth 2: one emitter and one bsdf "
+                            "sample per pixel sample instead of " +
+                                std::to_string(emitter_samples) + " and " + std::to_string(bsdf_samples) +
+                                " (the same image, noisier per sample)");
+  } else {
+    ip.max_depth = int(p.get_int("max_depth", -1));
+    ip.rr_depth = int(p.get_int("rr_depth", 5));
+  }
   if (ip.max_depth < -1 || ip.max_depth == 0) error(n, "max_depth must be -1 (unbounded) or ≥ 1");
   if (ip.rr_depth < 1) error(n, "rr_depth must be ≥ 1");
   if (p.get_bool("hide_emitters", false)) error(n, "hide_emitters is not supported");
@@ -127,6 +164,7 @@ void MitsubaParser::parse_sampler(pugi::xml_node n) {
   long seed = p.get_int("seed", 0);
   s.seed = uint64_t(seed);
   p.get_bool("jitter", true);
+  p.get_int("dimension", 4);  // Mitsuba 0.5 ldsampler's low-discrepancy dimensions: a strategy only
   p.check_all_used();
 }
 
@@ -143,9 +181,26 @@ void MitsubaParser::parse_film(pugi::xml_node n, int& width, int& height) {
   width = int(w);
   height = int(h);
   p.get_string("file_format", "openexr");
-  std::string pf = p.get_string("pixel_format", "rgb");
-  if (pf != "rgb" && pf != "rgba") error(n, "pixel_format '" + pf + "' is not supported (rgb)");
-  if (type == "hdrfilm") p.get_string("component_format", "float16");
+  // hdrfilm's pixel and component formats shape .exr outputs (ExrFormat);
+  // when the film names neither, Luz writes 32-bit RGB. Luz's film has no
+  // coverage: an alpha channel is left out, with a warning.
+  ExrFormat& exr = builder_.settings().exr_format;
+  if (pugi::xml_node f = p.get("pixel_format", {"string"})) {
+    const std::string pf = attr(f, "value");
+    const std::string base = pf.size() > 6 && pf.ends_with("_alpha") ? pf.substr(0, pf.size() - 6) : pf;
+    if (base == "rgb" || base == "rgba") exr.channels = ExrChannels::Rgb;
+    else if (base == "luminance") exr.channels = ExrChannels::Luminance;
+    else if (base == "xyz" || base == "xyza") exr.channels = ExrChannels::Xyz;
+    else error(f, "pixel_format '" + pf + "' is not supported (luminance, luminance_alpha, rgb, rgba, xyz, xyza)");
+    if (type == "ldrfilm") exr.channels = ExrChannels::Rgb;  // a PNG's format: RGB
+    else if (base != pf || pf == "rgba" || pf == "xyza")
+      builder_.warn(loc(f), "pixel_format '" + pf + "': Luz's film has no alpha; outputs are written without it");
+  }
+  if (type == "hdrfilm") {
+    const std::string cf = p.get_string("component_format", "float32");
+    if (cf == "float16") exr.half = true;
+    else if (cf != "float32") error(n, "component_format '" + cf + "' is not supported (float16, float32)");
+  }
   if (type == "ldrfilm") p.get_float("gamma", -1.0);  // the PNG encoding's gamma (-1: sRGB)
   p.get_bool("banner", false);
   p.get_bool("high_quality_edges", false);

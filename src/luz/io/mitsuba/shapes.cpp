@@ -1,15 +1,121 @@
-// The Mitsuba reader's shapes and their area emitters (see parser.h).
+// The Mitsuba reader's shapes and their area emitters (see parser.h):
+// obj, ply, serialized, rectangle, cube, disk, cylinder, sphere, and
+// shapegroup with instance.
 #include <cmath>
+#include <numbers>
 
 #include "luz/io/mesh_obj.h"
+#include "luz/io/mesh_ply.h"
+#include "luz/io/mesh_serialized.h"
 #include "luz/io/mitsuba/parser.h"
 
 namespace luz::mitsuba {
 
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+// Disks and cylinders are triangulated with this many segments around, their
+// radius widened so that the polygon keeps the circle's area (an emitter's
+// power) or the cylinder its lateral area: the silhouette then lies within
+// 1e-4 of the radius of Mitsuba's analytic shape.
+constexpr int kSegments = 256;
+
+// Mitsuba 3's coordinate_system (Duff et al. 2017, "Building an orthonormal
+// basis, revisited"): the cylinder's angle starts along `s`, as Mitsuba's uv.
+void coordinate_system(Vec3 n, Vec3& s, Vec3& t) {
+  const float sign = std::copysign(1.f, n.z), a = -1.f / (sign + n.z), b = n.x * n.y * a;
+  s = {1.f + sign * n.x * n.x * a, sign * b, -sign * n.x};
+  t = {b, sign + n.y * n.y * a, -n.y};
+}
+
+// Mitsuba's unit disk at z = 0 facing +z: uv = (r, φ / 2π) as its disk plugin.
+void disk_mesh(std::vector<Vec3>& pos, std::vector<Vec3>& nrm, std::vector<Vec2>& uv, std::vector<uint32_t>& idx) {
+  const double r = std::sqrt(2.0 * kPi / (kSegments * std::sin(2.0 * kPi / kSegments)));
+  for (int i = 0; i <= kSegments; ++i) {
+    const double phi = 2.0 * kPi * i / kSegments;
+    pos.push_back({float(r * std::cos(phi)), float(r * std::sin(phi)), 0.f});
+    uv.push_back({1.f, float(i) / kSegments});
+    pos.push_back({0.f, 0.f, 0.f});  // the centre, once per segment: its v follows the segment
+    uv.push_back({0.f, (i + 0.5f) / kSegments});
+  }
+  nrm.assign(pos.size(), {0, 0, 1});
+  for (uint32_t i = 0; i < uint32_t(kSegments); ++i) idx.insert(idx.end(), {2 * i + 1, 2 * i, 2 * i + 2});
+}
+
+// Mitsuba's cylinder: open (no caps), from p0 to p1 with `radius`, normals
+// outward, uv = (φ / 2π, distance along the axis / length).
+void cylinder_mesh(Vec3 p0, Vec3 p1, float radius, std::vector<Vec3>& pos, std::vector<Vec3>& nrm,
+                   std::vector<Vec2>& uv, std::vector<uint32_t>& idx) {
+  const Vec3 d = normalize(p1 - p0);
+  Vec3 s, t;
+  coordinate_system(d, s, t);
+  const double r = radius * kPi / (kSegments * std::sin(kPi / kSegments));
+  for (int i = 0; i <= kSegments; ++i) {
+    const double phi = 2.0 * kPi * i / kSegments;
+    const Vec3 radial = s * float(std::cos(phi)) + t * float(std::sin(phi));
+    for (int end = 0; end < 2; ++end) {
+      pos.push_back((end ? p1 : p0) + radial * float(r));
+      nrm.push_back(radial);
+      uv.push_back({float(i) / kSegments, float(end)});
+    }
+  }
+  for (uint32_t i = 0; i < uint32_t(kSegments); ++i) {
+    const uint32_t a = 2 * i, b = 2 * i + 2;
+    idx.insert(idx.end(), {a, b, b + 1, a, b + 1, a + 1});
+  }
+}
+
+}  // namespace
+
 void MitsubaParser::parse_shape(pugi::xml_node n) {
-  std::string type = attr(n, "type");
-  if (type != "sphere" && type != "rectangle" && type != "cube" && type != "obj")
-    error(n, "unknown shape '" + type + "' (supported: obj, rectangle, cube, sphere)");
+  const std::string type = attr(n, "type");
+  if (type == "shapegroup") return parse_shapegroup(n);
+  if (type == "instance") return parse_instance(n);
+  add_shape(n, -1);
+}
+
+// Mitsuba's shapegroup: shapes stored once (an object of the builder),
+// placed by instances that <ref> it. Its shapes take no emitter (as in
+// Mitsuba 3) and no sphere (Luz's objects hold triangles).
+void MitsubaParser::parse_shapegroup(pugi::xml_node n) {
+  const std::string id = n.attribute("id").value();
+  if (id.empty()) error(n, "a shapegroup needs an id (instances refer to it)");
+  if (shapegroups_.count(id) || bsdfs_.count(id) || textures_.count(id)) error(n, "duplicate id '" + id + "'");
+  check_children(n, {"shape"});
+  Props p(this, n);
+  p.check_all_used();
+  const uint32_t object = builder_.begin_object(loc(n), id);
+  for (pugi::xml_node c : n.children("shape")) {
+    const std::string type = attr(c, "type");
+    if (type == "shapegroup" || type == "instance") error(c, "a " + type + " inside a shapegroup is not supported");
+    add_shape(c, int64_t(object));
+  }
+  shapegroups_[id] = object;
+}
+
+void MitsubaParser::parse_instance(pugi::xml_node n) {
+  check_children(n, {"ref"});
+  Props p(this, n);
+  const Matrix4 to_world = p.get_transform("to_world");
+  p.check_all_used();
+  std::vector<pugi::xml_node> refs;
+  for (pugi::xml_node c : n.children("ref")) refs.push_back(c);
+  if (refs.size() != 1) error(n, "an instance needs exactly one <ref> to a shapegroup");
+  const std::string id = attr(refs[0], "id");
+  auto it = shapegroups_.find(id);
+  if (it == shapegroups_.end()) error(refs[0], "no shapegroup with id '" + id + "' defined before this point");
+  builder_.add_instance(loc(n), it->second, to_world);
+}
+
+// One shape: into the scene (object < 0) or into a shapegroup's object.
+void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
+  const std::string type = attr(n, "type");
+  static const char* kSupported =
+      "(supported: obj, ply, serialized, rectangle, cube, disk, cylinder, sphere, shapegroup, instance)";
+  if (type != "sphere" && type != "rectangle" && type != "cube" && type != "obj" && type != "ply" &&
+      type != "serialized" && type != "disk" && type != "cylinder")
+    error(n, "unknown shape '" + type + "' " + kSupported);
   check_children(n, {"bsdf", "ref", "emitter"});
   Props p(this, n);
   Matrix4 to_world = p.get_transform("to_world");
@@ -42,18 +148,25 @@ void MitsubaParser::parse_shape(pugi::xml_node n) {
     emission = &area;
   }
 
-  // Textures, masks, normal and bump maps need texture coordinates: rectangles
-  // and OBJ meshes with vt have them. Only a textured shape keeps them (see read_obj).
+  if (emission && object >= 0) error(n, "an emitter on a shape inside a shapegroup is not supported (as in Mitsuba 3)");
+
+  // Textures, masks, normal and bump maps need texture coordinates: the
+  // built-in shapes but the cube and sphere have them, meshes where their
+  // files do. Only a textured shape keeps them (see read_obj).
   const Material& mat = builder_.scene().materials[size_t(material)];
   const bool textured_bsdf = mat.num_bindings > 0 || mat.opacity_texture >= 0 || mat.normal_map >= 0 || mat.bump_map >= 0;
   const bool textured = textured_bsdf || area.texture >= 0;
-  auto refuse_texture = [&](const char* why) {
+  auto refuse_texture = [&](const std::string& why) {
     if (textured) error(n, std::string(textured_bsdf ? "a textured bsdf on " : "a textured emitter on ") + why);
   };
   std::vector<Vec3> pos, nrm;
   std::vector<Vec2> uv;
   std::vector<uint32_t> idx;
+  // Built-in shapes whose faces are flat: the normal given by the normal
+  // transform sets the winding, then the geometric normal is exact.
+  bool flat = true;
   if (type == "sphere") {
+    if (object >= 0) error(n, "a sphere inside a shapegroup is not supported (objects hold triangle meshes)");
     refuse_texture("a sphere is not supported (no texture coordinates)");
     Vec3 center = p.get_point("center", {});
     double radius = p.get_float("radius", 1.0);
@@ -73,6 +186,17 @@ void MitsubaParser::parse_shape(pugi::xml_node n) {
     nrm.assign(4, {0, 0, 1});
     if (textured) uv = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};  // Mitsuba's rectangle
     idx = {0, 1, 2, 2, 3, 0};
+  } else if (type == "disk") {
+    p.check_all_used();
+    disk_mesh(pos, nrm, uv, idx);
+  } else if (type == "cylinder") {
+    const Vec3 p0 = p.get_point("p0", {0, 0, 0}), p1 = p.get_point("p1", {0, 0, 1});
+    const double radius = p.get_float("radius", 1.0);
+    p.check_all_used();
+    if (!(radius > 0)) error(n, "radius must be positive");
+    if (!(length(p1 - p0) > 0.f)) error(n, "the cylinder's p0 and p1 coincide");
+    cylinder_mesh(p0, p1, float(radius), pos, nrm, uv, idx);
+    flat = false;  // the radial vertex normals shade it round
   } else if (type == "cube") {
     p.check_all_used();
     refuse_texture("a cube is not supported (no texture coordinates)");
@@ -94,29 +218,67 @@ void MitsubaParser::parse_shape(pugi::xml_node n) {
         }
         idx.insert(idx.end(), {base, base + 1, base + 2, base + 2, base + 3, base});
       }
-  } else if (type == "obj") {
-    std::string file = p.get_string("filename", "");
-    if (file.empty()) error(n, "obj shape needs a 'filename'");
-    bool face_normals = p.get_bool("face_normals", false);
-    // Mitsuba flips OBJ's v by default (read_obj does); flip_tex_coords false keeps vt as written.
-    const bool flip_uv = p.get_bool("flip_tex_coords", true);
-    p.check_all_used();
-    const fs::path full = scene_file(n, file, "OBJ file");
-    ObjMesh mesh = read_obj(full.string(), false, textured ? ObjTexcoords::Yes : ObjTexcoords::No);
-    pos = std::move(mesh.positions);
-    if (!face_normals) nrm = std::move(mesh.normals);
-    if (textured && mesh.texcoords.empty()) refuse_texture(("an OBJ mesh without texture coordinates ('" + file + "')").c_str());
-    uv = std::move(mesh.texcoords);
-    if (!flip_uv)
-      for (Vec2& t : uv) t.y = 1.f - t.y;
-    idx = std::move(mesh.indices);
   } else {
-    error(n, "unknown shape '" + type + "' (supported: obj, rectangle, cube, sphere)");
+    // Meshes from files. Meshes without normals shade flat (Mitsuba would
+    // compute smooth vertex normals), as Luz's OBJ meshes do.
+    flat = false;
+    std::string file = p.get_string("filename", "");
+    if (file.empty()) error(n, type + " shape needs a 'filename'");
+    bool face_normals = p.get_bool("face_normals", false);
+    // Mitsuba 0.5's max_smooth_angle rebuilds vertex normals, smoothing
+    // across edges below the angle; Luz keeps the file's normals (or shades
+    // flat without them) and says so.
+    if (p.has("max_smooth_angle")) {
+      p.get_float("max_smooth_angle", 0.0);
+      if (!warned_smooth_angle_)
+        builder_.warn(loc(n), "max_smooth_angle is not supported: the files' vertex normals are used as they are "
+                              "(said once for the scene)");
+      warned_smooth_angle_ = true;
+    }
+    const fs::path full = mesh_file(n, file, type);
+    if (type == "obj") {
+      // Mitsuba flips OBJ's v by default (read_obj does); flip_tex_coords false keeps vt as written.
+      const bool flip_uv = p.get_bool("flip_tex_coords", true);
+      p.check_all_used();
+      if (full.extension() == ".ply") {  // mesh_file's fallback: the same mesh as PLY
+        read_mesh_ply(full, flip_uv, textured, pos, nrm, uv, idx);
+      } else {
+        ObjMesh mesh = read_obj(full.string(), false, textured ? ObjTexcoords::Yes : ObjTexcoords::No);
+        pos = std::move(mesh.positions);
+        nrm = std::move(mesh.normals);
+        uv = std::move(mesh.texcoords);
+        if (!flip_uv)
+          for (Vec2& t : uv) t.y = 1.f - t.y;
+        idx = std::move(mesh.indices);
+      }
+    } else if (type == "ply") {
+      // Mitsuba 3's ply flips v by default too (flip_tex_coords, default true).
+      const bool flip_uv = p.get_bool("flip_tex_coords", true);
+      p.check_all_used();
+      read_mesh_ply(full, flip_uv, textured, pos, nrm, uv, idx);
+    } else {
+      const long index = p.get_int("shape_index", 0);
+      p.check_all_used();
+      if (index < 0) error(n, "shape_index must be ≥ 0");
+      // Scenes read many shapes from one file: it is read once.
+      auto it = serialized_files_.find(full.string());
+      if (it == serialized_files_.end()) it = serialized_files_.emplace(full.string(), read_binary_file(full.string())).first;
+      SerializedMesh mesh =
+          read_serialized_memory(full.string(), it->second.data(), it->second.size(), uint32_t(index));
+      pos = std::move(mesh.positions);
+      nrm = std::move(mesh.normals);
+      if (textured) uv = std::move(mesh.uvs);  // as stored: Mitsuba's serialized plugin does not flip
+      idx = std::move(mesh.indices);
+      face_normals = face_normals || mesh.face_normals;
+    }
+    if (face_normals) nrm.clear();
+    if (textured && uv.empty()) refuse_texture("a mesh without texture coordinates ('" + file + "')");
   }
+  if (!textured) uv.clear();
 
-  // Bake the transform. Analytic rectangle and cube keep the normal given by
-  // the normal transform; the winding is set to agree with it.
-  bool analytic = type != "obj";
+  // Bake the transform. The built-in shapes keep the normal given by the
+  // normal transform; the winding is set to agree with it.
+  const bool analytic = type != "obj" && type != "ply" && type != "serialized";
   for (Vec3& v : pos) v = to_world.point(v);
   for (Vec3& v : nrm) v = to_world.normal(v);
   for (size_t k = 0; k + 2 < idx.size(); k += 3) {
@@ -127,8 +289,22 @@ void MitsubaParser::parse_shape(pugi::xml_node n) {
   }
   if (flip)
     for (Vec3& v : nrm) v = -v;
-  if (analytic) nrm.clear();  // flat faces: the geometric normal is exact
-  builder_.add_mesh(loc(n), {std::move(pos), std::move(nrm), std::move(uv), std::move(idx)}, uint32_t(material), emission);
+  if (analytic && flat) nrm.clear();  // flat faces: the geometric normal is exact
+  TriangleMesh mesh{std::move(pos), std::move(nrm), std::move(uv), std::move(idx)};
+  if (object >= 0) builder_.add_object_mesh(loc(n), uint32_t(object), std::move(mesh), uint32_t(material));
+  else builder_.add_mesh(loc(n), std::move(mesh), uint32_t(material), emission);
+}
+
+// A PLY mesh's arrays; v flipped (1 - v) when flip_uv.
+void MitsubaParser::read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, std::vector<Vec3>& pos,
+                                  std::vector<Vec3>& nrm, std::vector<Vec2>& uv, std::vector<uint32_t>& idx) {
+  PlyMesh mesh = read_ply(full.string());
+  pos = std::move(mesh.positions);
+  nrm = std::move(mesh.normals);
+  if (textured) uv = std::move(mesh.uvs);
+  if (flip_uv)
+    for (Vec2& t : uv) t.y = 1.f - t.y;
+  idx = std::move(mesh.indices);
 }
 
 }  // namespace luz::mitsuba

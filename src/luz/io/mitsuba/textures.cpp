@@ -1,17 +1,42 @@
-// The Mitsuba reader's textures (bitmap, checkerboard) and the files a scene names (see parser.h).
+// The Mitsuba reader's textures (bitmap, checkerboard) and the files a scene
+// names (see parser.h).
 #include <cmath>
 
 #include "luz/io/mitsuba/parser.h"
 
 namespace luz::mitsuba {
 
-fs::path MitsubaParser::scene_file(pugi::xml_node n, const std::string& file, const char* what) const {
+fs::path MitsubaParser::resolve_file(pugi::xml_node n, const std::string& file, const char* what) const {
   const fs::path full = fs::path(path_).parent_path() / file;
   std::error_code ec;
-  if (!fs::is_regular_file(full, ec))
-    error(n, std::string("cannot open ") + what + " '" + full.string() +
-                 "': " + (fs::exists(full, ec) ? "not a regular file" : "no such file"));
-  return full;
+  if (fs::is_regular_file(full, ec)) return full;
+  if (fs::path(file).is_relative())
+    for (const std::string& dir : search_paths_)
+      if (fs::is_regular_file(fs::path(dir) / file, ec)) return fs::path(dir) / file;
+  error(n, std::string("cannot open ") + what + " '" + full.string() +
+               "': " + (fs::exists(full, ec) ? "not a regular file" : "no such file"));
+}
+
+fs::path MitsubaParser::mesh_file(pugi::xml_node n, const std::string& file, const std::string& type) {
+  const std::string what = (type == "obj" ? "OBJ" : type == "ply" ? "PLY" : type) + " file";
+  fs::path name(file);
+  std::string ext = name.extension().string();
+  for (char& c : ext) c = char(std::tolower((unsigned char)c));
+  if (type == "obj" && ext == ".obj") {
+    try {
+      return resolve_file(n, file, what.c_str());
+    } catch (const InputError&) {
+      const fs::path ply = fs::path(file).replace_extension(".ply");
+      try {
+        const fs::path full = resolve_file(n, ply.string(), what.c_str());
+        builder_.warn(loc(n), "'" + file + "' is missing: read '" + full.string() + "' (the same name as PLY) instead");
+        return full;
+      } catch (const InputError&) {
+      }
+      throw;
+    }
+  }
+  return resolve_file(n, file, what.c_str());
 }
 
 UvTransform MitsubaParser::uv_transform(pugi::xml_node t, Props& p) {
@@ -75,7 +100,7 @@ int32_t MitsubaParser::parse_texture(pugi::xml_node t, bool load) {
   if (gamma == 1.0) bm.srgb = false;
   else if (gamma != -1.0) error(t, "bitmap gamma must be -1 (sRGB) or 1 (linear)");
   p.check_all_used();
-  const fs::path full = scene_file(t, file, "bitmap");
+  const fs::path full = resolve_file(t, file, "bitmap");
   if (!load) return -1;
   return builder_.add_image_texture(loc(t), {full.string(), bm.srgb, bm.filter, bm.wrap, to_uv});
 }

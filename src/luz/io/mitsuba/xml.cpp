@@ -40,14 +40,7 @@ Scene MitsubaParser::parse() {
   if (!res) throw InputError(path_, line_at(size_t(res.offset)), std::string("malformed XML: ") + res.description());
   pugi::xml_node root = doc_.child("scene");
   if (!root) error(doc_.document_element(), "root element must be <scene>");
-  if (pugi::xml_attribute v = root.attribute("version")) {
-    int major = 0;
-    const char* b = v.value();
-    auto r = std::from_chars(b, b + std::strlen(b), major);
-    if (r.ec != std::errc() || (*r.ptr != '.' && *r.ptr != '\0'))
-      error(root, "version '" + std::string(b) + "' is not a version number (as 3.0.0)");
-    legacy_names_ = major < 2;
-  }
+  legacy_names_ = scene_version_legacy(root);
   for (pugi::xml_node n = doc_.first_child(); n; n = n.next_sibling())
     if (n.type() == pugi::node_element && (std::string(n.name()) != "scene" || n != root))
       error(n, "unexpected top-level element <" + std::string(n.name()) + ">");
@@ -73,32 +66,112 @@ Scene MitsubaParser::parse() {
     if (!declared) throw InputError(path_, 0, "-D " + name + ": the scene declares no <default name=\"" + name + "\">");
   }
 
-  bool have_sensor = false, have_integrator = false;
+  include_stack_.push_back(fs::absolute(path_).lexically_normal().string());
+  parse_top_level(root);
+  if (!have_sensor_) throw InputError(path_, 0, "the scene has no <sensor>");
+  return builder_.finish();
+}
+
+// Whether a <scene> names parameters in Mitsuba 0.5/0.6's camelCase: its
+// version is below 2, or it is 2.x (a version bumped by hand, as the shared
+// material-testball's 2.0.0) and a parameter name holds a capital, which no
+// Mitsuba 2 name does: then the names are upgraded with a warning. A
+// version 3 scene's names are taken as written.
+bool MitsubaParser::scene_version_legacy(pugi::xml_node root) {
+  pugi::xml_attribute v = root.attribute("version");
+  if (!v) return false;
+  int major = 0;
+  const char* b = v.value();
+  auto r = std::from_chars(b, b + std::strlen(b), major);
+  if (r.ec != std::errc() || (*r.ptr != '.' && *r.ptr != '\0'))
+    error(root, "version '" + std::string(b) + "' is not a version number (as 3.0.0)");
+  if (major < 2) return true;
+  if (major > 2) return false;
+  const pugi::xml_node n = root.find_node([](pugi::xml_node c) {
+    const std::string name = c.attribute("name").value();
+    return kPropertyTags.count(c.name()) &&
+           std::any_of(name.begin(), name.end(), [](unsigned char ch) { return std::isupper(ch); });
+  });
+  if (n) {
+    builder_.warn(loc(n), "parameter '" + std::string(n.attribute("name").value()) +
+                              "' is a Mitsuba 0.5/0.6 camelCase name in a version " + b +
+                              " scene: the file's names are read as Mitsuba 0.6's");
+    return true;
+  }
+  return false;
+}
+
+// The elements of a <scene>, of the scene file or of an included one.
+void MitsubaParser::parse_top_level(pugi::xml_node root) {
   for (pugi::xml_node n : root.children()) {
     if (n.type() != pugi::node_element) continue;
     std::string tag = n.name();
-    if (tag == "default") continue;
+    if (tag == "default") {
+      if (include_stack_.size() > 1) error(n, "<default> in an included file is not supported (declare it in the scene file)");
+      continue;  // read by parse()
+    }
     if (tag == "integrator") {
-      if (have_integrator) error(n, "only one <integrator> is supported");
+      if (have_integrator_) error(n, "only one <integrator> is supported");
       parse_integrator(n);
-      have_integrator = true;
+      have_integrator_ = true;
     } else if (tag == "sensor") {
-      if (have_sensor) error(n, "only one <sensor> is supported");
+      if (have_sensor_) error(n, "only one <sensor> is supported");
       parse_sensor(n);
-      have_sensor = true;
+      have_sensor_ = true;
     } else if (tag == "bsdf") {
       parse_bsdf(n);
     } else if (tag == "texture") {
       const std::string id = n.attribute("id").value();
       if (id.empty()) error(n, "a top-level <texture> needs an id");
-      if (textures_.count(id) || bsdfs_.count(id)) error(n, "duplicate id '" + id + "'");
+      if (textures_.count(id) || bsdfs_.count(id) || shapegroups_.count(id)) error(n, "duplicate id '" + id + "'");
       textures_[id] = uint32_t(parse_texture(n, true));
     } else if (tag == "shape") parse_shape(n);
     else if (tag == "emitter") parse_emitter(n);
+    else if (tag == "include") parse_include(n);
     else error(n, "unsupported element <" + tag + ">");
   }
-  if (!have_sensor) throw InputError(path_, 0, "the scene has no <sensor>");
-  return builder_.finish();
+}
+
+// Mitsuba's <include filename="..."/>: a file (relative to the including
+// one) whose <scene> holds more top-level elements, read in its own
+// version's names; a file that includes itself, directly or not, is refused.
+void MitsubaParser::parse_include(pugi::xml_node n) {
+  for (pugi::xml_attribute a : n.attributes())
+    if (std::string(a.name()) != "filename") error(n, "unknown attribute '" + std::string(a.name()) + "' of <include>");
+  if (n.first_child()) error(n, "<include> takes no children");
+  const fs::path full = resolve_file(n, attr(n, "filename"), "included file");
+  const std::string key = fs::absolute(full).lexically_normal().string();
+  for (const std::string& f : include_stack_)
+    if (f == key) error(n, "'" + full.string() + "' includes itself (a cycle of includes)");
+  if (include_stack_.size() > 64) error(n, "includes nested more than 64 deep");
+
+  // Messages name the included file and its lines while it is read.
+  struct Context {
+    MitsubaParser& p;
+    std::string path, text;
+    bool legacy;
+    explicit Context(MitsubaParser& parser) : p(parser), path(p.path_), text(p.text_), legacy(p.legacy_names_) {}
+    ~Context() {
+      p.path_ = std::move(path);
+      p.text_ = std::move(text);
+      p.legacy_names_ = legacy;
+      p.include_stack_.pop_back();
+    }
+  } context(*this);
+  include_stack_.push_back(key);
+  path_ = full.string();
+  text_ = read_text_file(path_);
+  included_.push_back(std::make_unique<pugi::xml_document>());
+  pugi::xml_document& doc = *included_.back();
+  pugi::xml_parse_result res = doc.load_buffer(text_.data(), text_.size(), pugi::parse_default);
+  if (!res) throw InputError(path_, line_at(size_t(res.offset)), std::string("malformed XML: ") + res.description());
+  pugi::xml_node root = doc.document_element();
+  if (std::string(root.name()) != "scene") error(root, "the root element of an included file must be <scene>");
+  for (pugi::xml_node c = doc.first_child(); c; c = c.next_sibling())
+    if (c.type() == pugi::node_element && c != root)
+      error(c, "unexpected top-level element <" + std::string(c.name()) + ">");
+  legacy_names_ = scene_version_legacy(root);
+  parse_top_level(root);
 }
 
 int MitsubaParser::line_at(size_t offset) const {
@@ -355,8 +428,8 @@ Matrix4 MitsubaParser::parse_transform(pugi::xml_node t) const {
 
 }  // namespace mitsuba
 
-Scene load_mitsuba(const std::string& path, const Defines& defines) {
-  return mitsuba::MitsubaParser(path, defines).parse();
+Scene load_mitsuba(const std::string& path, const Defines& defines, const std::vector<std::string>& search_paths) {
+  return mitsuba::MitsubaParser(path, defines, search_paths).parse();
 }
 
 }  // namespace luz
