@@ -62,6 +62,7 @@
 #include <tuple>
 
 #include "luz/io/error.h"
+#include "luz/io/image.h"
 #include "luz/math/transform.h"
 #include "luz/scene/scene_builder.h"
 
@@ -82,7 +83,6 @@ int index_of(const tinygltf::Value& v) {
   return d >= 0.0 && d < 2147483648.0 && d == std::floor(d) ? int(d) : -1;
 }
 
-float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
 
 class GltfLoader {
  public:
@@ -137,8 +137,7 @@ class GltfLoader {
   void read_model() {
     tinygltf::TinyGLTF reader;
     std::string err, warn_text;
-    std::string ext = fs::path(path_).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    const std::string ext = lower_extension(path_);
     bool ok = false;
     try {
       ok = ext == ".glb" ? reader.LoadBinaryFromFile(&model_, &err, &warn_text, path_)

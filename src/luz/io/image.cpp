@@ -30,11 +30,6 @@ namespace luz {
 
 namespace {
 
-std::string extension(const std::string& path) {
-  std::string e = std::filesystem::path(path).extension().string();
-  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-  return e;
-}
 
 void write_exr_file(const std::string& path, const Image& img, const ExrFormat& fmt) {
   // Rows of the 3×3 map from linear sRGB (Rec. 709 primaries, D65) to CIE XYZ.
@@ -115,13 +110,19 @@ float linear_to_srgb(float v) {
   return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.f / 2.4f) - 0.055f;
 }
 
+std::string lower_extension(const std::string& path) {
+  std::string e = std::filesystem::path(path).extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  return e;
+}
+
 bool is_supported_image_extension(const std::string& path) {
-  std::string e = extension(path);
+  std::string e = lower_extension(path);
   return e == ".exr" || e == ".pfm" || e == ".png";
 }
 
 void write_image(const std::string& path, const Image& img, const ExrFormat& exr) {
-  std::string e = extension(path);
+  std::string e = lower_extension(path);
   if (!is_supported_image_extension(path))
     throw InputError(path, 0, "unknown image format '" + e + "' (use .exr, .pfm or .png)");
   if (img.width <= 0 || img.height <= 0 || img.rgb.size() != size_t(img.width) * size_t(img.height) * 3)
@@ -201,7 +202,7 @@ Image read_pfm(const std::string& path) {
 }
 
 Image8 read_image8(const std::string& path) {
-  std::string e = extension(path);
+  std::string e = lower_extension(path);
   if (e != ".jpg" && e != ".jpeg" && e != ".png" && e != ".tga" && e != ".bmp")
     throw InputError(path, 0, "unsupported bitmap format '" + e + "' (supported: .jpg, .png, .tga, .bmp)");
   int w = 0, h = 0, channels = 0;
@@ -219,7 +220,7 @@ Image8 read_image8(const std::string& path) {
 }
 
 Image read_image_linear(const std::string& path) {
-  const std::string e = extension(path);
+  const std::string e = lower_extension(path);
   if (e == ".exr") return read_exr(path);
   if (e == ".pfm") return read_pfm(path);
   Image img;

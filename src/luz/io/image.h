@@ -22,6 +22,8 @@ struct Image8 {
   std::vector<uint32_t> rgba;
 };
 
+// A path's extension in lower case, with its dot (".exr"; "" when none).
+std::string lower_extension(const std::string& path);
 bool is_supported_image_extension(const std::string& path);
 // JPEG, PNG, TGA or BMP through stb_image; throws InputError naming the path.
 Image8 read_image8(const std::string& path);

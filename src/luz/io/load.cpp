@@ -3,19 +3,10 @@
 #include <filesystem>
 
 #include "luz/io/error.h"
+#include "luz/io/image.h"
 #include "luz/io/gltf.h"
 
 namespace luz {
-
-namespace {
-
-std::string lower_extension(const std::string& path) {
-  std::string e = std::filesystem::path(path).extension().string();
-  for (char& c : e) c = char(std::tolower((unsigned char)c));
-  return e;
-}
-
-}  // namespace
 
 Scene load_scene(const std::string& path, const Defines& defines, const std::vector<std::string>& search_paths) {
   std::error_code ec;

@@ -38,6 +38,8 @@ LUZ_INLINE float length_squared(Vec3 a) { return dot(a, a); }
 LUZ_INLINE float length(Vec3 a) { return sqrtf(dot(a, a)); }
 LUZ_INLINE Vec3 normalize(Vec3 a) { return a * (1.f / length(a)); }
 LUZ_INLINE float max_component(Vec3 a) { return max(a.x, max(a.y, a.z)); }
+// The largest magnitude of a coordinate.
+LUZ_INLINE float max_abs(Vec3 a) { return max(fabsf(a.x), max(fabsf(a.y), fabsf(a.z))); }
 LUZ_INLINE float average(Vec3 a) { return (a.x + a.y + a.z) * (1.f / 3.f); }
 LUZ_INLINE bool is_black(Vec3 a) { return a.x == 0.f && a.y == 0.f && a.z == 0.f; }
 LUZ_INLINE bool is_finite(Vec3 a) { return is_finite(a.x) && is_finite(a.y) && is_finite(a.z); }

@@ -11,18 +11,6 @@
 
 namespace luz {
 
-namespace {
-
-float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
-
-std::string lower_extension(const std::string& path) {
-  std::string e = std::filesystem::path(path).extension().string();
-  for (char& c : e) c = char(std::tolower((unsigned char)c));
-  return e;
-}
-
-}  // namespace
-
 SceneBuilder::SceneBuilder(std::string file) : file_(std::move(file)) {}
 
 void SceneBuilder::error(const SourceLoc& at, const std::string& problem) const {

@@ -10,7 +10,6 @@ namespace luz::mitsuba {
 namespace {
 
 // Embree's limit on a ray's origin and direction components (FLT_LARGE, 1.844e18).
-float max_abs(Vec3 v) { return std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}); }
 // The rows of the inverse of m's linear part, (b × c, c × a, a × b) / det for
 // its columns a, b, c (world -> local directions); false if it is degenerate.
 bool inverse_rows(const Matrix4& m, Vec3& x, Vec3& y, Vec3& z) {

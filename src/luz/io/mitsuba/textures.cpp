@@ -2,6 +2,7 @@
 // names (see parser.h).
 #include <cmath>
 
+#include "luz/io/image.h"
 #include "luz/io/mitsuba/parser.h"
 
 namespace luz::mitsuba {
@@ -19,9 +20,7 @@ fs::path MitsubaParser::resolve_file(pugi::xml_node n, const std::string& file, 
 
 fs::path MitsubaParser::mesh_file(pugi::xml_node n, const std::string& file, const std::string& type) {
   const std::string what = (type == "obj" ? "OBJ" : type == "ply" ? "PLY" : type) + " file";
-  fs::path name(file);
-  std::string ext = name.extension().string();
-  for (char& c : ext) c = char(std::tolower((unsigned char)c));
+  const std::string ext = lower_extension(file);
   if (type == "obj" && ext == ".obj") {
     try {
       return resolve_file(n, file, what.c_str());

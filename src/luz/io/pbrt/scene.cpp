@@ -123,11 +123,6 @@ Vec2 equal_area_sphere_to_square(Vec3 d) {
 
 bool same(Color a, Color b) { return a.x == b.x && a.y == b.y && a.z == b.z; }
 
-std::string lower_ext(const fs::path& p) {
-  std::string e = p.extension().string();
-  for (char& c : e) c = char(std::tolower((unsigned char)c));
-  return e;
-}
 
 // Named spectra of pbrt-v4 (spectrum.cpp) that Luz maps: metals onto the
 // conductor presets' RGB, glasses onto their index at the d line (587.6 nm,
@@ -922,7 +917,7 @@ class PbrtScene final : public ParserTarget {
     std::error_code ec;
     if (fs::is_regular_file(full, ec)) return full.string();
     static const char* kImageExts[] = {".exr", ".hdr", ".pfm", ".png", ".jpg", ".jpeg", ".tga", ".bmp"};
-    const std::string ext = lower_ext(full);
+    const std::string ext = lower_extension(full.string());
     const bool image = std::find_if(std::begin(kImageExts), std::end(kImageExts),
                                     [&](const char* e) { return ext == e; }) != std::end(kImageExts);
     if (image) {
