@@ -38,14 +38,14 @@ inline std::string slurp(const fs::path& p) {
 
 class LuzCliTest : public TempDirTest {
  protected:
-  // Runs luz with args in dir; stdout and stderr go to files there, removed after.
-  CliResult run(const std::vector<std::string>& args) {
-    fs::path out_file = dir / ".stdout", err_file = dir / ".stderr";
+  // Starts luz with args in dir, stdout and stderr to the files out and err
+  // (created or truncated), without waiting for it.
+  pid_t spawn(const std::vector<std::string>& args, const fs::path& out, const fs::path& err) {
     pid_t pid = ::fork();
     if (pid == 0) {
       if (::chdir(dir.c_str()) != 0) ::_exit(127);
-      int o = ::open(out_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      int e = ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
       if (o < 0 || e < 0) ::_exit(127);
       ::dup2(o, 1);
       ::dup2(e, 2);
@@ -58,6 +58,13 @@ class LuzCliTest : public TempDirTest {
       ::execv(bin.c_str(), argv.data());
       ::_exit(127);
     }
+    return pid;
+  }
+
+  // Runs luz with args in dir; stdout and stderr go to files there, removed after.
+  CliResult run(const std::vector<std::string>& args) {
+    fs::path out_file = dir / ".stdout", err_file = dir / ".stderr";
+    pid_t pid = spawn(args, out_file, err_file);
     CliResult r;
     int st = 0;
     EXPECT_EQ(::waitpid(pid, &st, 0), pid);

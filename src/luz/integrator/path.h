@@ -55,6 +55,9 @@ namespace luz {
 
 enum class IntegratorType : uint32_t { Path, Bsdf, Light };
 
+// The longest max_depth a scene or flag may ask (-1, unbounded, aside).
+inline constexpr int kMaxDepthLimit = 1 << 20;
+
 struct IntegratorParams {
   IntegratorType type = IntegratorType::Path;
   int max_depth = -1;

@@ -6,10 +6,10 @@
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
 #include <ImfOutputFile.h>
-#include <unistd.h>
+#include <ImfStdIO.h>
+#include <ImfStringAttribute.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -23,6 +23,7 @@
 #define STB_IMAGE_STATIC
 #include <stb/stb_image.h>
 
+#include "luz/io/atomic_file.h"
 #include "luz/io/error.h"
 #include "luz/texture/texture.h"
 
@@ -31,7 +32,8 @@ namespace luz {
 namespace {
 
 
-void write_exr_file(const std::string& path, const Image& img, const ExrFormat& fmt) {
+std::string encode_exr(const Image& img, const ExrFormat& fmt, const ImageMetadata& metadata,
+                       const std::vector<ImageLayer>& layers) {
   // Rows of the 3×3 map from linear sRGB (Rec. 709 primaries, D65) to CIE XYZ.
   static constexpr float kXyz[3][3] = {
       {0.412453f, 0.357580f, 0.180423f}, {0.212671f, 0.715160f, 0.072169f}, {0.019334f, 0.119193f, 0.950227f}};
@@ -58,50 +60,44 @@ void write_exr_file(const std::string& path, const Image& img, const ExrFormat& 
     header.channels().insert(kNames[format][c], Imf::Channel(type));
     fb.insert(kNames[format][c], Imf::Slice(type, base + size_t(c) * size, xs, ys));
   }
-  Imf::OutputFile file(path.c_str(), header);
-  file.setFrameBuffer(fb);
-  file.writePixels(img.height);
+  for (const ImageLayer& layer : layers) {
+    const size_t n = layer.channels.size();
+    if (n == 0 || layer.values.size() != n * pixels) throw std::invalid_argument("layer '" + layer.name + "' has the wrong size");
+    for (size_t c = 0; c < n; ++c) {
+      const std::string name = layer.name + "." + layer.channels[c];
+      header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+      char* at = reinterpret_cast<char*>(const_cast<float*>(layer.values.data() + c));
+      fb.insert(name, Imf::Slice(Imf::FLOAT, at, n * sizeof(float), n * sizeof(float) * size_t(img.width)));
+    }
+  }
+  for (const auto& [name, value] : metadata) header.insert(name, Imf::StringAttribute(value));
+  Imf::StdOSStream stream;
+  {
+    Imf::OutputFile file(stream, header);
+    file.setFrameBuffer(fb);
+    file.writePixels(img.height);
+  }
+  return stream.str();
 }
 
-// fopen for writing, or an InputError with the system's reason.
-std::FILE* open_for_writing(const std::string& path) {
-  std::FILE* f = std::fopen(path.c_str(), "wb");
-  if (!f) throw InputError(path, 0, std::string("cannot open for writing: ") + std::strerror(errno));
-  return f;
+std::string encode_pfm(const Image& img) {
+  std::string out = "PF\n" + std::to_string(img.width) + " " + std::to_string(img.height) +
+                    "\n-1.0\n";  // negative scale: little endian
+  const size_t row = size_t(img.width) * 3 * sizeof(float);
+  for (int y = img.height - 1; y >= 0; --y)  // PFM rows run bottom to top
+    out.append(reinterpret_cast<const char*>(img.rgb.data() + size_t(y) * img.width * 3), row);
+  return out;
 }
 
-// Closes f; throws if the writes before (ok == false) or the close failed.
-void close_written(std::FILE* f, bool ok, const std::string& path) {
-  int err = ok ? 0 : errno;
-  if (std::fclose(f) != 0 && ok) ok = false, err = errno;
-  if (!ok) throw InputError(path, 0, std::string("write failed: ") + std::strerror(err));
-}
-
-void write_pfm_file(const std::string& path, const Image& img) {
-  std::FILE* f = open_for_writing(path);
-  std::fprintf(f, "PF\n%d %d\n-1.0\n", img.width, img.height);  // negative scale: little endian
-  bool ok = true;
-  for (int y = img.height - 1; y >= 0 && ok; --y)  // PFM rows run bottom to top
-    ok = std::fwrite(img.rgb.data() + size_t(y) * img.width * 3, sizeof(float), size_t(img.width) * 3, f) ==
-         size_t(img.width) * 3;
-  close_written(f, ok, path);
-}
-
-void write_png_file(const std::string& path, const Image& img) {
+std::string encode_png(const Image& img) {
   std::vector<unsigned char> px(img.rgb.size());
   for (size_t i = 0; i < px.size(); ++i)
     px[i] = (unsigned char)std::lround(255.f * linear_to_srgb(std::clamp(img.rgb[i], 0.f, 1.f)));
-  // stbi_write_png ignores fwrite's and fclose's errors (a full disk leaves a
-  // truncated file and reports success): encode to memory, write and check here.
-  std::vector<unsigned char> png;
-  auto append = [](void* ctx, void* data, int size) {
-    auto* out = static_cast<std::vector<unsigned char>*>(ctx);
-    out->insert(out->end(), static_cast<unsigned char*>(data), static_cast<unsigned char*>(data) + size);
-  };
+  std::string png;
+  auto append = [](void* ctx, void* data, int size) { static_cast<std::string*>(ctx)->append(static_cast<char*>(data), size_t(size)); };
   if (!stbi_write_png_to_func(append, &png, img.width, img.height, 3, px.data(), img.width * 3))
-    throw InputError(path, 0, "PNG encoding failed");
-  std::FILE* f = open_for_writing(path);
-  close_written(f, std::fwrite(png.data(), 1, png.size(), f) == png.size(), path);
+    throw std::runtime_error("PNG encoding failed");
+  return png;
 }
 
 }  // namespace
@@ -121,36 +117,25 @@ bool is_supported_image_extension(const std::string& path) {
   return e == ".exr" || e == ".pfm" || e == ".png";
 }
 
-void write_image(const std::string& path, const Image& img, const ExrFormat& exr) {
+void write_image(const std::string& path, const Image& img, const ExrFormat& exr, const ImageMetadata& metadata,
+                 const std::vector<ImageLayer>& layers) {
   std::string e = lower_extension(path);
   if (!is_supported_image_extension(path))
     throw InputError(path, 0, "unknown image format '" + e + "' (use .exr, .pfm or .png)");
   if (img.width <= 0 || img.height <= 0 || img.rgb.size() != size_t(img.width) * size_t(img.height) * 3)
     throw InputError(path, 0, "image has no pixels or the wrong number of them");
-  // Same directory, so the final rename is atomic; a short name of its own, so
-  // that any name the directory accepts for the output also fits the temporary.
-  std::string tmp =
-      (std::filesystem::path(path).parent_path() / (".luz-" + std::to_string(::getpid()) + ".part" + e)).string();
+  // Encoded in memory (stb and OpenEXR would not report a full disk through
+  // their file writers), then written whole or not at all.
+  std::string bytes;
   try {
-    if (e == ".exr")
-      write_exr_file(tmp, img, exr);
-    else if (e == ".pfm")
-      write_pfm_file(tmp, img);
-    else
-      write_png_file(tmp, img);
-  } catch (const InputError& ex) {  // about the temporary: report the output the user named
-    std::remove(tmp.c_str());
-    throw InputError(path, 0, "cannot write: " + ex.problem());
+    if (!layers.empty() && e != ".exr") throw std::invalid_argument("only OpenEXR outputs hold further layers");
+    bytes = e == ".exr" ? encode_exr(img, exr, metadata, layers) : e == ".pfm" ? encode_pfm(img) : encode_png(img);
+  } catch (const std::bad_alloc&) {
+    throw;
   } catch (const std::exception& ex) {  // OpenEXR (Iex) and std:: exceptions alike
-    std::remove(tmp.c_str());
     throw InputError(path, 0, std::string("cannot write: ") + ex.what());
   }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::remove(tmp.c_str());
-    throw InputError(path, 0, "cannot write: " + ec.message());
-  }
+  write_file_atomically(path, bytes.data(), bytes.size());
 }
 
 Image read_exr(const std::string& path) {

@@ -1,11 +1,10 @@
 // Image files: OpenEXR (float RGB), PFM, and sRGB PNG (clamped, 8 bit). The
-// format follows the extension. Writers go through a temporary file renamed
-// into place, so a failed write never leaves a half-written image under the
-// final name.
+// format follows the extension.
 #pragma once
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace luz {
@@ -37,8 +36,23 @@ struct ExrFormat {
   bool half = false;
 };
 
-// Throws InputError naming the path on failure.
-void write_image(const std::string& path, const Image& img, const ExrFormat& exr = {});
+// Named text attributes an OpenEXR output carries (the other formats have
+// no place for them).
+using ImageMetadata = std::vector<std::pair<std::string, std::string>>;
+
+// A further layer of an OpenEXR output, e.g. "albedo" with channels R G B:
+// written as channels "albedo.R", ... (32-bit float), values interleaved per
+// pixel, rows top to bottom.
+struct ImageLayer {
+  std::string name;
+  std::vector<std::string> channels;
+  std::vector<float> values;
+};
+
+// Written whole or not at all (io/atomic_file.h): through a symbolic link to
+// its target. Throws InputError naming the path on failure.
+void write_image(const std::string& path, const Image& img, const ExrFormat& exr = {},
+                 const ImageMetadata& metadata = {}, const std::vector<ImageLayer>& layers = {});
 Image read_exr(const std::string& path);
 Image read_pfm(const std::string& path);
 // A linear float RGB image from OpenEXR, PFM, Radiance HDR, or an 8-bit

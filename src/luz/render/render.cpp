@@ -61,9 +61,12 @@ RenderResult render_on_cuda(const Scene& scene, const RenderRequest& req, uint32
   opt.end_sample = end;
   opt.start = req.start;
   opt.stop = stop;
-  opt.pass_done = [&](uint64_t samples, uint32_t spp_done, uint32_t passes) {
-    report.work(samples);
-    report.pass(spp_done, passes);
+  uint64_t reported = 0;
+  opt.pass_done = [&](const Film& film, const RenderStats& so_far) {
+    report.work(so_far.samples - reported);
+    reported = so_far.samples;
+    report.pass(so_far.spp, so_far.passes);
+    if (req.pass_done) req.pass_done(film, so_far);
   };
   RenderResult r;
   r.film = render_cuda(scene, opt, r.stats);
@@ -147,6 +150,10 @@ RenderResult render(const Scene& scene, const RenderRequest& req) {
     st.samples = pixels * st.spp;
     st.discarded += p.discarded;
     report.pass(st.spp, st.passes);
+    if (req.pass_done) {
+      st.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+      req.pass_done(film, st);
+    }
   }
   st.seconds = std::chrono::duration<double>(Clock::now() - start).count();
   res.film = std::move(film);

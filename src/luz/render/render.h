@@ -68,6 +68,11 @@ struct RenderRequest {
   // and after each pass, from whichever thread did it, never two calls at
   // once. Keep it short: the workers wait for it.
   std::function<void(const RenderProgress&)> progress;
+  // Called after each whole pass on the thread that runs the render (the
+  // workers wait): the film so far, samples [0, first_sample + stats.spp),
+  // and this request's stats so far (rays and seconds excluded on CUDA).
+  // Where checkpoints are written.
+  std::function<void(const Film&, const RenderStats&)> pass_done;
 };
 
 struct RenderResult {

@@ -56,6 +56,15 @@ std::string fmt(const char* f, double a, double b = 0, double c = 0) {
 
 }  // namespace
 
+const char* filter_name(FilterKind k) { return k == FilterKind::Box ? "box" : k == FilterKind::Tent ? "tent" : "gaussian"; }
+const char* integrator_name(IntegratorType t) {
+  return t == IntegratorType::Path ? "path" : t == IntegratorType::Bsdf ? "bsdf" : "light";
+}
+const char* sampler_name(SamplerType t) {
+  return t == SamplerType::Independent ? "independent" : t == SamplerType::Stratified ? "stratified" : "sobol";
+}
+const char* light_sampler_name(LightSamplerType t) { return t == LightSamplerType::Power ? "power" : "bvh"; }
+
 std::string describe_scene(const Scene& s) {
   std::string out;
   auto line = [&](const std::string& key, const std::string& value) { out += key + ": " + value + "\n"; };
@@ -87,12 +96,12 @@ std::string describe_scene(const Scene& s) {
     camera += fmt(", aperture radius %g, focus distance %g", c.lens.aperture_radius, c.lens.focus_distance);
   line("camera", camera);
   const RenderSettings& r = s.settings;
-  const char* filter = r.filter == FilterKind::Box ? "box" : r.filter == FilterKind::Tent ? "tent" : "gaussian";
+  const char* filter = filter_name(r.filter);
   line("film", std::to_string(c.width) + "×" + std::to_string(c.height) + ", " + filter + " filter");
-  const char* integ = r.integrator.type == IntegratorType::Path ? "path" : r.integrator.type == IntegratorType::Bsdf ? "bsdf" : "light";
+  const char* integ = integrator_name(r.integrator.type);
   line("integrator", std::string(integ) + ", max depth " +
                          (r.integrator.max_depth < 0 ? std::string("unbounded") : std::to_string(r.integrator.max_depth)));
-  const char* sampler = r.sampler == SamplerType::Independent ? "independent" : r.sampler == SamplerType::Stratified ? "stratified" : "sobol";
+  const char* sampler = sampler_name(r.sampler);
   line("sampler", std::string(sampler) + ", " + std::to_string(r.spp) + " spp, seed " + std::to_string(r.seed));
   line("warnings", std::to_string(s.warnings.size()));
   for (const std::string& w : s.warnings) out += "  " + w + "\n";

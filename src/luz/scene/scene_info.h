@@ -11,4 +11,10 @@ namespace luz {
 
 std::string describe_scene(const Scene& scene);
 
+// The names the CLI and scene files use.
+const char* filter_name(FilterKind k);
+const char* integrator_name(IntegratorType t);
+const char* sampler_name(SamplerType t);
+const char* light_sampler_name(LightSamplerType t);
+
 }  // namespace luz

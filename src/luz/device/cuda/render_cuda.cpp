@@ -389,7 +389,14 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
     s.pending = false;
     spp_done += n;
     ++passes_done;
-    if (options.pass_done) options.pass_done(uint64_t(pixels) * n, spp_done, passes_done);
+    if (options.pass_done) {
+      RenderStats so_far;
+      so_far.samples = uint64_t(pixels) * spp_done;
+      so_far.spp = spp_done;
+      so_far.passes = passes_done;
+      so_far.discarded = discarded;
+      options.pass_done(film, so_far);
+    }
   };
 
   auto start = std::chrono::steady_clock::now();

@@ -50,9 +50,9 @@ struct CudaRenderOptions {
   // Polled before each pass is launched: true ends the render after the
   // passes already launched (whole passes only).
   std::function<bool()> stop;
-  // After each pass joins the film: its pixel-samples, the samples per pixel
-  // and passes done so far.
-  std::function<void(uint64_t, uint32_t, uint32_t)> pass_done;
+  // After each pass joins the film: the film and the stats so far (samples,
+  // spp, passes, discarded; rays and seconds only at the end).
+  std::function<void(const Film&, const RenderStats&)> pass_done;
 };
 
 // Whether render_cuda can run: a driver new enough for this build's runtime,

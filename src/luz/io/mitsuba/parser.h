@@ -72,7 +72,8 @@ class MitsubaParser {
     Props(const MitsubaParser* parser, pugi::xml_node node);
     pugi::xml_node get(const std::string& name, std::initializer_list<const char*> types);
     double get_float(const std::string& name, double def);
-    long get_int(const std::string& name, long def);
+    // An integer in [lo, hi] (the message states the range).
+    long get_int(const std::string& name, long def, long lo = -2000000000, long hi = 2000000000);
     bool get_bool(const std::string& name, bool def);
     std::string get_string(const std::string& name, const std::string& def);
     Color get_color(const std::string& name, Color def);

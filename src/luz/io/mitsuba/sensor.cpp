@@ -50,10 +50,11 @@ void MitsubaParser::parse_integrator(pugi::xml_node n) {
                                 std::to_string(emitter_samples) + " and " + std::to_string(bsdf_samples) +
                                 " (the same image, noisier per sample)");
   } else {
-    ip.max_depth = int(p.get_int("max_depth", -1));
+    ip.max_depth = int(p.get_int("max_depth", -1, -1, kMaxDepthLimit));
     ip.rr_depth = int(p.get_int("rr_depth", 5));
   }
-  if (ip.max_depth < -1 || ip.max_depth == 0) error(n, "max_depth must be -1 (unbounded) or ≥ 1");
+  if (ip.max_depth < -1 || ip.max_depth == 0)
+    error(n, "max_depth must be -1 (unbounded) or from 1 to " + std::to_string(kMaxDepthLimit));
   if (ip.rr_depth < 1) error(n, "rr_depth must be ≥ 1");
   if (p.get_bool("hide_emitters", false)) error(n, "hide_emitters is not supported");
   // Mitsuba 0.5's strictNormals drops light whose geometric and shading

@@ -306,11 +306,12 @@ double MitsubaParser::Props::get_float(const std::string& name, double def) {
   return n ? p->number(n, p->attr(n, "value")) : def;
 }
 
-long MitsubaParser::Props::get_int(const std::string& name, long def) {
+long MitsubaParser::Props::get_int(const std::string& name, long def, long lo, long hi) {
   pugi::xml_node n = get(name, {"integer"});
   if (!n) return def;
   double v = p->number(n, p->attr(n, "value"));
-  if (v != std::floor(v) || std::fabs(v) > 2e9) p->error(n, "'" + name + "' must be an integer");
+  if (v != std::floor(v) || v < double(lo) || v > double(hi))
+    p->error(n, "'" + name + "' must be an integer from " + std::to_string(lo) + " to " + std::to_string(hi));
   return long(v);
 }
 
