@@ -22,12 +22,23 @@ namespace luz {
 
 namespace {
 
+bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+// The first whitespace-separated token of a line ("" when none).
+std::string_view first_token(std::string_view line) {
+  size_t b = 0;
+  while (b < line.size() && is_space(line[b])) ++b;
+  size_t e = b;
+  while (e < line.size() && !is_space(line[e])) ++e;
+  return line.substr(b, e - b);
+}
+
 // Whitespace-separated tokens of one line, into `out` (reused: no
 // allocation per line once it has grown).
 void split(std::string_view line, std::vector<std::string_view>& out) {
   out.clear();
   size_t k = 0;
-  auto space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; };
+  auto space = is_space;
   while (k < line.size()) {
     while (k < line.size() && space(line[k])) ++k;
     const size_t b = k;
@@ -95,13 +106,17 @@ class ObjChecker {
         ++line_no;
         size_t hash = line.find('#');
         if (hash != std::string_view::npos) line = line.substr(0, hash);
+        if (pass == 0) {  // counting needs the first token only
+          const std::string_view key = first_token(line);
+          if (key == "v" || key == "vn" || key == "vt") ++(key == "v" ? v : key == "vn" ? vn : vt);
+          continue;
+        }
         split(line, tok);
         if (tok.empty()) continue;
         const std::string_view key = tok[0];
         if (key == "v" || key == "vn" || key == "vt") {
           size_t& count = key == "v" ? v : key == "vn" ? vn : vt;
           ++count;
-          if (pass == 0) continue;
           size_t need = key == "vt" ? 1 : 3;
           if (tok.size() - 1 < need)
             throw InputError(path_, line_no, "'" + std::string(key) + "' needs " + std::to_string(need) + " numbers");
