@@ -57,6 +57,18 @@ struct StatsSum {
   }
 };
 
+// An 8-bit image's statistics, its texels read as sRGB or as linear values.
+TextureStats stats8(const Image8& img, bool srgb) {
+  static const std::vector<float> table = [] {  // Scene::srgb_table's values
+    std::vector<float> t;
+    for (int k = 0; k < 256; ++k) t.push_back(float(srgb_to_linear(k / 255.0)));
+    return t;
+  }();
+  StatsSum sum;
+  for (uint32_t texel : img.rgba) sum.add(texel_color(texel, srgb, table.data()));
+  return sum.done(img.rgba.size());
+}
+
 }  // namespace
 
 SceneBuilder::ImageFile SceneBuilder::read_image_file(const std::string& path) {
@@ -66,18 +78,7 @@ SceneBuilder::ImageFile SceneBuilder::read_image_file(const std::string& path) {
     return f;
   }
   f.img8 = read_image8(path);
-  static const std::vector<float> table = [] {  // Scene::srgb_table's values
-    std::vector<float> t;
-    for (int k = 0; k < 256; ++k) t.push_back(float(srgb_to_linear(k / 255.0)));
-    return t;
-  }();
-  StatsSum linear, srgb;
-  for (uint32_t texel : f.img8.rgba) {
-    linear.add(texel_color(texel, false, table.data()));
-    srgb.add(texel_color(texel, true, table.data()));
-  }
-  f.stats8[0] = linear.done(f.img8.rgba.size());
-  f.stats8[1] = srgb.done(f.img8.rgba.size());
+  f.srgb_stats = stats8(f.img8, true);  // what 8-bit textures mostly are
   return f;
 }
 
@@ -153,7 +154,7 @@ int32_t SceneBuilder::add_image_texture(const SourceLoc& at, const ImageTextureD
       } else {
         bm.width = uint32_t(f->img8.width), bm.height = uint32_t(f->img8.height);
         index = int32_t(scene_.add_bitmap(bm, d.to_uv, f->img8.rgba));
-        stats = f->stats8[d.srgb];
+        stats = d.srgb ? f->srgb_stats : stats8(f->img8, false);
       }
     } catch (const std::length_error& e) {
       error(at, e.what());

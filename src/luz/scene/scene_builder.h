@@ -150,11 +150,11 @@ class SceneBuilder {
   TextureStats bitmap_stats(const Texture& texture) const;
 
   // An image file as add_image_texture reads it: linear float texels, or
-  // 8-bit ones with their statistics read as sRGB and as linear values.
+  // 8-bit ones with their statistics read as sRGB.
   struct ImageFile {
     Image img;
     Image8 img8;
-    TextureStats stats8[2];  // [srgb]
+    TextureStats srgb_stats;
   };
   static ImageFile read_image_file(const std::string& path);
 
