@@ -997,12 +997,10 @@ class PbrtScene final : public ParserTarget {
     } catch (const InputError&) {
     }
     tbb::parallel_invoke([&] { builder_.read_images_ahead(images); },
-                         [&] { plys_ahead_.run(plys, [](const std::string& f) { return read_ply(f); }); });
+                         [&] { plys_ahead_.run(largest_first(plys), [](const std::string& f) { return read_ply(f); }); });
   }
 
  private:
-
-
   static std::vector<uint32_t> checked_indices(const SourceLoc& at, const std::vector<int>& idx, size_t nv, int per) {
     if (idx.size() % size_t(per) != 0)
       throw InputError(at.file, at.line, "\"integer indices\" count " + std::to_string(idx.size()) + " is not a multiple of " + std::to_string(per));
