@@ -28,10 +28,16 @@ void SceneBuilder::warn(const SourceLoc& at, const std::string& problem) {
 
 // ---- textures ----
 
-int32_t SceneBuilder::push_texture_stats(int32_t index, const TextureStats& stats) {
+int32_t SceneBuilder::push_texture_stats(int32_t index, const std::optional<TextureStats>& stats) {
   texture_stats_.resize(scene_.textures.size());
   texture_stats_[size_t(index)] = stats;
   return index;
+}
+
+const TextureStats& SceneBuilder::texture_stats(int32_t texture) const {
+  std::optional<TextureStats>& s = texture_stats_.at(size_t(texture));
+  if (!s) s = bitmap_stats(scene_.textures[size_t(texture)]);
+  return *s;
 }
 
 namespace {
@@ -113,7 +119,7 @@ int32_t SceneBuilder::add_image_texture(const SourceLoc& at, const ImageTextureD
   bm.wrap = d.wrap;
   bm.srgb = d.srgb;
   int32_t index = -1;
-  TextureStats stats;
+  std::optional<TextureStats> stats;  // none: computed when asked for
   if (auto it = image_files_.find(d.path); it != image_files_.end()) {
     // Read already with other settings: a view of the same texels.
     Texture t = scene_.textures[size_t(it->second)];
@@ -126,7 +132,6 @@ int32_t SceneBuilder::add_image_texture(const SourceLoc& at, const ImageTextureD
     } catch (const std::length_error& e) {
       error(at, e.what());
     }
-    stats = bitmap_stats(t);
   } else {
     // Read first (a reader's error gains this place), then check and add.
     std::optional<ImageFile> f;
@@ -154,7 +159,7 @@ int32_t SceneBuilder::add_image_texture(const SourceLoc& at, const ImageTextureD
       } else {
         bm.width = uint32_t(f->img8.width), bm.height = uint32_t(f->img8.height);
         index = int32_t(scene_.add_bitmap(bm, d.to_uv, f->img8.rgba));
-        stats = d.srgb ? f->srgb_stats : stats8(f->img8, false);
+        if (d.srgb) stats = f->srgb_stats;
       }
     } catch (const std::length_error& e) {
       error(at, e.what());
@@ -180,7 +185,7 @@ int32_t SceneBuilder::add_checkerboard(const SourceLoc& at, Color color0, Color 
   } catch (const std::length_error& e) {
     error(at, e.what());
   }
-  return push_texture_stats(index, {(color0 + color1) * 0.5f, vmin(color0, color1), vmax(color0, color1)});
+  return push_texture_stats(index, TextureStats{(color0 + color1) * 0.5f, vmin(color0, color1), vmax(color0, color1)});
 }
 
 TextureStats SceneBuilder::bitmap_stats(const Texture& t) const {
@@ -204,7 +209,7 @@ int32_t SceneBuilder::add_image8(const SourceLoc& at, BitmapTexture bm, const Uv
   } catch (const std::length_error& e) {
     error(at, e.what());
   }
-  return push_texture_stats(index, bitmap_stats(scene_.textures[size_t(index)]));
+  return push_texture_stats(index, std::nullopt);
 }
 
 int32_t SceneBuilder::add_texture(const SourceLoc& at, const Texture& t) {
@@ -221,7 +226,7 @@ int32_t SceneBuilder::add_texture(const SourceLoc& at, const Texture& t) {
   } catch (const std::length_error& e) {
     error(at, e.what());
   }
-  return push_texture_stats(index, bitmap_stats(t));
+  return push_texture_stats(index, std::nullopt);
 }
 
 // ---- materials ----

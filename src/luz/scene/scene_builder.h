@@ -8,6 +8,7 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -98,7 +99,8 @@ class SceneBuilder {
   // Another view of texels already added (a channel, a scale, other lookup
   // settings: texture.h), e.g. a copy of an earlier texture changed.
   int32_t add_texture(const SourceLoc& at, const Texture& texture);
-  const TextureStats& texture_stats(int32_t texture) const { return texture_stats_.at(size_t(texture)); }
+  // (Of textures added as texels or views of them: computed when first asked for.)
+  const TextureStats& texture_stats(int32_t texture) const;
 
   // ---- materials ----
   uint32_t add_material(const SourceLoc& at, const MaterialDesc& desc);
@@ -146,7 +148,7 @@ class SceneBuilder {
   void check_emission(const SourceLoc& at, const AreaEmission& e) const;
   void check_shape_material(const SourceLoc& at, uint32_t material, const AreaEmission* emission,
                             bool has_uvs, const char* what) const;
-  int32_t push_texture_stats(int32_t index, const TextureStats& stats);
+  int32_t push_texture_stats(int32_t index, const std::optional<TextureStats>& stats);
   TextureStats bitmap_stats(const Texture& texture) const;
 
   // An image file as add_image_texture reads it: linear float texels, or
@@ -166,7 +168,7 @@ class SceneBuilder {
 
   std::string file_;
   Scene scene_;
-  std::vector<TextureStats> texture_stats_;  // one per scene_.textures entry
+  mutable std::vector<std::optional<TextureStats>> texture_stats_;  // one per scene_.textures entry
   std::map<std::string, int32_t> image_cache_;
   std::map<std::string, int32_t> image_files_;  // path -> its first texture
   ReadAhead<ImageFile> images_ahead_;
