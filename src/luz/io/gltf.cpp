@@ -50,6 +50,7 @@
 //  - Images: 8 or 16 bits per channel (16 reduced to 8), RGBA.
 #include "luz/io/gltf.h"
 
+#include <tbb/parallel_for.h>
 #include <tiny_gltf.h>
 
 #include <algorithm>
@@ -134,17 +135,57 @@ class GltfLoader {
     if (warned_.insert(msg).second) builder_.warn(at_, msg);
   }
 
+  // An image as tinygltf hands it over: decoded after the model is read, all
+  // in parallel (tinygltf decodes them one after another).
+  struct PendingImage {
+    int index = 0, req_width = 0, req_height = 0;
+    std::string name, err_before;  // err_before: tinygltf's error text so far
+    std::vector<unsigned char> bytes;
+  };
+  std::vector<PendingImage> pending_;
+
+  static bool keep_image(tinygltf::Image* image, int index, std::string* err, std::string*, int req_width,
+                         int req_height, const unsigned char* bytes, int size, void* loader) {
+    static_cast<GltfLoader*>(loader)->pending_.push_back(
+        {index, req_width, req_height, image->name, err ? *err : "", {bytes, bytes + size}});
+    return true;
+  }
+
+  // Decodes the pending images as tinygltf would (its LoadImageData, in
+  // parallel) into the model; returns the error text tinygltf would have
+  // stopped with at the first that fails ("" when none does).
+  std::string decode_images() {
+    std::vector<std::string> errors(pending_.size());
+    tbb::parallel_for(size_t(0), pending_.size(), [&](size_t k) {
+      const PendingImage& p = pending_[k];
+      if (size_t(p.index) >= model_.images.size()) return;  // the model stopped before keeping it
+      tinygltf::Image& im = model_.images[size_t(p.index)];
+      std::string warn;
+      if (!tinygltf::LoadImageData(&im, p.index, &errors[k], &warn, p.req_width, p.req_height, p.bytes.data(),
+                                   int(p.bytes.size()), nullptr))
+        errors[k] = p.err_before + errors[k];
+    });
+    pending_.clear();
+    for (const std::string& e : errors)
+      if (!e.empty()) return e;
+    return "";
+  }
+
   void read_model() {
     tinygltf::TinyGLTF reader;
-    std::string err, warn_text;
+    reader.SetImageLoader(keep_image, this);
+    std::string err, warn_text, thrown;
     const std::string ext = lower_extension(path_);
     bool ok = false;
     try {
       ok = ext == ".glb" ? reader.LoadBinaryFromFile(&model_, &err, &warn_text, path_)
                          : reader.LoadASCIIFromFile(&model_, &err, &warn_text, path_);
     } catch (const std::exception& e) {
-      fail("", std::string("cannot parse: ") + e.what());
+      thrown = e.what();
     }
+    // The images read before a later failure would have failed first.
+    if (std::string image_err = decode_images(); !image_err.empty()) ok = false, err = image_err, thrown.clear();
+    if (!thrown.empty()) fail("", "cannot parse: " + thrown);
     if (!ok) {
       std::string first = err.substr(0, err.find('\n'));
       if (first.empty()) first = "not a valid glTF file";
@@ -444,11 +485,16 @@ class GltfLoader {
     const Texture tex = builder_.scene().textures[size_t(mat.emission_texture)];
     std::vector<uint32_t> dark;
     const std::vector<uint32_t>& tris = mesh.indices;
+    // Each triangle's footprint on its own (in parallel), then added in order.
+    std::vector<Color> radiance(tris.size() / 3, mat.emission);
+    std::vector<float> maxima(tris.size() / 3, 1.f);
+    tbb::parallel_for(size_t(0), tris.size() / 3, [&](size_t t) {
+      footprint(tex, mesh.uvs[tris[3 * t]], mesh.uvs[tris[3 * t + 1]], mesh.uvs[tris[3 * t + 2]], radiance[t], maxima[t]);
+    });
     for (size_t k = 0; k < tris.size(); k += 3) {
-      AreaEmission e{mat.emission, mat.emission_texture};
-      float max = 1.f;
+      const AreaEmission e{radiance[k / 3], mat.emission_texture};
+      const float max = maxima[k / 3];
       const uint32_t v[3] = {tris[k], tris[k + 1], tris[k + 2]};
-      footprint(tex, mesh.uvs[v[0]], mesh.uvs[v[1]], mesh.uvs[v[2]], e.radiance, max);
       if (!(max > 0.f)) {
         dark.insert(dark.end(), v, v + 3);
         continue;

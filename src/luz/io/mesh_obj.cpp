@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <tuple>
 #include <sstream>
 #include <string_view>
@@ -21,12 +22,23 @@ namespace luz {
 
 namespace {
 
+bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; }
+
+// The first whitespace-separated token of a line ("" when none).
+std::string_view first_token(std::string_view line) {
+  size_t b = 0;
+  while (b < line.size() && is_space(line[b])) ++b;
+  size_t e = b;
+  while (e < line.size() && !is_space(line[e])) ++e;
+  return line.substr(b, e - b);
+}
+
 // Whitespace-separated tokens of one line, into `out` (reused: no
 // allocation per line once it has grown).
 void split(std::string_view line, std::vector<std::string_view>& out) {
   out.clear();
   size_t k = 0;
-  auto space = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; };
+  auto space = is_space;
   while (k < line.size()) {
     while (k < line.size() && space(line[k])) ++k;
     const size_t b = k;
@@ -45,8 +57,8 @@ std::vector<std::string> split(const std::string& line) {
 // tinyobjloader's safeGetline ends them: "\n", "\r\n" or a lone "\r" (splitting
 // at "\n" only would hide from the checks whatever follows a lone "\r").
 std::string_view next_line_view(const std::string& text, size_t& pos) {
-  size_t eol = text.find_first_of("\r\n", pos);
-  if (eol == std::string::npos) eol = text.size();
+  size_t eol = pos;  // a loop: find_first_of tests each byte with memchr
+  while (eol < text.size() && text[eol] != '\n' && text[eol] != '\r') ++eol;
   std::string_view line(text.data() + pos, eol - pos);
   pos = eol + (eol + 1 < text.size() && text[eol] == '\r' && text[eol + 1] == '\n' ? 2 : 1);
   return line;
@@ -94,13 +106,17 @@ class ObjChecker {
         ++line_no;
         size_t hash = line.find('#');
         if (hash != std::string_view::npos) line = line.substr(0, hash);
+        if (pass == 0) {  // counting needs the first token only
+          const std::string_view key = first_token(line);
+          if (key == "v" || key == "vn" || key == "vt") ++(key == "v" ? v : key == "vn" ? vn : vt);
+          continue;
+        }
         split(line, tok);
         if (tok.empty()) continue;
         const std::string_view key = tok[0];
         if (key == "v" || key == "vn" || key == "vt") {
           size_t& count = key == "v" ? v : key == "vn" ? vn : vt;
           ++count;
-          if (pass == 0) continue;
           size_t need = key == "vt" ? 1 : 3;
           if (tok.size() - 1 < need)
             throw InputError(path_, line_no, "'" + std::string(key) + "' needs " + std::to_string(need) + " numbers");
@@ -243,17 +259,30 @@ std::string read_text(const std::string& path) {
 
 }  // namespace
 
-ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texcoords) {
-  const std::string text = read_text(path);
+// An OBJ file read, checked and parsed: read_obj before de-indexing.
+struct ObjFile {
+  std::string path, text;
+  bool with_materials = false;
+  tinyobj::ObjReader reader;
+  std::vector<ObjWarning> warnings;
+};
+
+namespace {
+
+std::shared_ptr<ObjFile> parse_obj(const std::string& path, bool with_materials) {
+  auto file = std::make_shared<ObjFile>();
+  file->path = path;
+  file->text = read_text(path);
+  file->with_materials = with_materials;
+  const std::string& text = file->text;
   ObjChecker(path, text).check();
-  ObjMesh mesh;
-  if (with_materials) check_mtl_files(path, text, mesh.warnings);
+  if (with_materials) check_mtl_files(path, text, file->warnings);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
-  if (!with_materials) config.mtl_search_path = "/nonexistent/";
-  tinyobj::ObjReader reader;
-  if (!reader.ParseFromFile(path, config)) {
+  tinyobj::ObjReader& reader = file->reader;
+  // Without materials, from the text read already (an empty MTL for any mtllib).
+  if (!(with_materials ? reader.ParseFromFile(path, config) : reader.ParseFromString(text, "", config))) {
     std::string e = reader.Error();
     while (!e.empty() && (e.back() == '\n' || e.back() == '\r')) e.pop_back();
     for (char& c : e)
@@ -278,7 +307,25 @@ ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texc
           (idx.texcoord_index >= 0 && size_t(idx.texcoord_index) >= nt))
         throw InputError(path, 0, "face index out of range");
   }
+  return file;
+}
 
+}  // namespace
+
+std::shared_ptr<const ObjFile> read_obj_file(const std::string& path) { return parse_obj(path, false); }
+
+ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texcoords) {
+  return obj_mesh(*parse_obj(path, with_materials), texcoords);
+}
+
+ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords) {
+  const std::string& path = file.path;
+  const std::string& text = file.text;
+  const bool with_materials = file.with_materials;
+  const tinyobj::ObjReader& reader = file.reader;
+  const tinyobj::attrib_t& attrib = reader.GetAttrib();
+  ObjMesh mesh;
+  mesh.warnings = file.warnings;
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
   auto texture = [&](const std::string& name) { return name.empty() ? name : (dir / name).string(); };
   bool textured = false;

@@ -1,6 +1,7 @@
 // OBJ meshes through tinyobjloader, with line numbers for errors.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -47,5 +48,13 @@ enum class ObjTexcoords { No, Yes, IfTextured /* when a material has a texture m
 // (position, normal) pair, or per (position, normal, texture coordinate)
 // triple when texture coordinates are read (only then is `texcoords` filled).
 ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texcoords = ObjTexcoords::No);
+
+// read_obj(path, false, texcoords) in two steps, for readers that read files
+// ahead in parallel: reading, checking and parsing the file (the costly
+// part, which throws what read_obj throws)...
+struct ObjFile;
+std::shared_ptr<const ObjFile> read_obj_file(const std::string& path);
+// ...then the de-indexing, which depends on texcoords.
+ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords);
 
 }  // namespace luz

@@ -1,9 +1,11 @@
 #include "luz/scene/scene_builder.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 
 #include "luz/io/error.h"
@@ -26,10 +28,82 @@ void SceneBuilder::warn(const SourceLoc& at, const std::string& problem) {
 
 // ---- textures ----
 
-int32_t SceneBuilder::push_texture_stats(int32_t index, const TextureStats& stats) {
+int32_t SceneBuilder::push_texture_stats(int32_t index, const std::optional<TextureStats>& stats) {
   texture_stats_.resize(scene_.textures.size());
   texture_stats_[size_t(index)] = stats;
   return index;
+}
+
+const TextureStats& SceneBuilder::texture_stats(int32_t texture) const {
+  std::optional<TextureStats>& s = texture_stats_.at(size_t(texture));
+  if (!s) s = bitmap_stats(scene_.textures[size_t(texture)]);
+  return *s;
+}
+
+namespace {
+
+bool is_float_image(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  return ext == ".exr" || ext == ".hdr" || ext == ".pfm";
+}
+
+// Per-channel mean (summed in double), minimum and maximum, in this order:
+// texture statistics the same bit for bit however the image was read.
+struct StatsSum {
+  double sum[3] = {0, 0, 0};
+  TextureStats stats{{}, {INFINITY, INFINITY, INFINITY}, {0.f, 0.f, 0.f}};
+  void add(Color c) {
+    for (int k = 0; k < 3; ++k) sum[k] += c[k];
+    stats.min = vmin(stats.min, c);
+    stats.max = vmax(stats.max, c);
+  }
+  TextureStats done(size_t texels) {
+    for (int k = 0; k < 3; ++k) stats.mean[k] = float(sum[k] / double(texels));
+    return stats;
+  }
+};
+
+// An 8-bit image's statistics, its texels read as sRGB or as linear values.
+TextureStats stats8(const Image8& img, bool srgb) {
+  static const std::vector<float> table = [] {  // Scene::srgb_table's values
+    std::vector<float> t;
+    for (int k = 0; k < 256; ++k) t.push_back(float(srgb_to_linear(k / 255.0)));
+    return t;
+  }();
+  StatsSum sum;
+  for (uint32_t texel : img.rgba) sum.add(texel_color(texel, srgb, table.data()));
+  return sum.done(img.rgba.size());
+}
+
+}  // namespace
+
+SceneBuilder::ImageFile SceneBuilder::read_image_file(const std::string& path) {
+  ImageFile f;
+  if (is_float_image(path)) {
+    f.img = read_image_linear(path);  // float texels are linear: srgb changes nothing
+    return f;
+  }
+  f.img8 = read_image8(path);
+  f.srgb_stats = stats8(f.img8, true);  // what 8-bit textures mostly are
+  return f;
+}
+
+void SceneBuilder::read_images_ahead(const std::vector<std::string>& paths) {
+  std::vector<std::string> unique;  // each taken once (a second use shares the texels)
+  for (const std::string& p : paths)
+    if (std::find(unique.begin(), unique.end(), p) == unique.end()) unique.push_back(p);
+  const std::vector<std::string> keys = largest_first(unique);
+  // Room for all texels at once: appending them one image at a time would
+  // copy the earlier ones again at each growth.
+  std::atomic<size_t> texels8 = 0, floats = 0;
+  images_ahead_.run(keys, [&](const std::string& path) {
+    ImageFile f = read_image_file(path);
+    texels8 += f.img8.rgba.size();
+    floats += f.img.rgb.size();
+    return f;
+  });
+  scene_.texels8.reserve(scene_.texels8.size() + texels8);
+  scene_.texelsf.reserve(scene_.texelsf.size() + floats);
 }
 
 int32_t SceneBuilder::add_image_texture(const SourceLoc& at, const ImageTextureDesc& d) {
@@ -44,53 +118,54 @@ int32_t SceneBuilder::add_image_texture(const SourceLoc& at, const ImageTextureD
   bm.filter = d.filter;
   bm.wrap = d.wrap;
   bm.srgb = d.srgb;
-  TextureStats stats;
-  double sum[3] = {0, 0, 0};
-  stats.min = {INFINITY, INFINITY, INFINITY};
-  stats.max = {0.f, 0.f, 0.f};
-  auto account = [&](Color c) {
-    for (int k = 0; k < 3; ++k) sum[k] += c[k];
-    stats.min = vmin(stats.min, c);
-    stats.max = vmax(stats.max, c);
-  };
-  // Read first (a reader's error gains this place), then check and add.
-  const bool is_float = [&] {
-    const std::string ext = lower_extension(d.path);
-    return ext == ".exr" || ext == ".hdr" || ext == ".pfm";
-  }();
-  Image img;
-  Image8 img8;
-  try {
-    if (is_float) img = read_image_linear(d.path);  // float texels are linear: srgb changes nothing
-    else img8 = read_image8(d.path);
-  } catch (const InputError& e) {
-    error(at, e.what());
-  }
   int32_t index = -1;
-  size_t texels = 0;
-  try {
-    if (is_float) {
-      texels = size_t(img.width) * size_t(img.height);
-      for (size_t k = 0; k < texels; ++k) {
-        const Color c{img.rgb[3 * k], img.rgb[3 * k + 1], img.rgb[3 * k + 2]};
-        if (!is_finite(c) || c.x < 0.f || c.y < 0.f || c.z < 0.f)
-          error(at, "bitmap '" + d.path + "': texel (" + std::to_string(k % size_t(img.width)) + ", " +
-                        std::to_string(k / size_t(img.width)) + ") is negative or not finite");
-        account(c);
-      }
-      bm.width = uint32_t(img.width), bm.height = uint32_t(img.height);
-      index = int32_t(scene_.add_bitmap(bm, d.to_uv, img.rgb));
-    } else {
-      bm.width = uint32_t(img8.width), bm.height = uint32_t(img8.height);
-      index = int32_t(scene_.add_bitmap(bm, d.to_uv, img8.rgba));
-      texels = img8.rgba.size();
-      const float* table = scene_.srgb_table.data();
-      for (uint32_t texel : img8.rgba) account(texel_color(texel, bm.srgb, table));
+  std::optional<TextureStats> stats;  // none: computed when asked for
+  if (auto it = image_files_.find(d.path); it != image_files_.end()) {
+    // Read already with other settings: a view of the same texels.
+    Texture t = scene_.textures[size_t(it->second)];
+    bm.width = t.bitmap.width, bm.height = t.bitmap.height, bm.offset = t.bitmap.offset;
+    bm.is_float = t.bitmap.is_float;
+    t.bitmap = bm;
+    t.to_uv = d.to_uv;
+    try {
+      index = int32_t(scene_.add_texture(t));
+    } catch (const std::length_error& e) {
+      error(at, e.what());
     }
-  } catch (const std::length_error& e) {
-    error(at, e.what());
+  } else {
+    // Read first (a reader's error gains this place), then check and add.
+    std::optional<ImageFile> f;
+    try {
+      f = images_ahead_.take(d.path);
+      if (!f) f = read_image_file(d.path);
+    } catch (const InputError& e) {
+      error(at, e.what());
+    }
+    try {
+      if (is_float_image(d.path)) {
+        const Image& img = f->img;
+        const size_t texels = size_t(img.width) * size_t(img.height);
+        StatsSum sum;
+        for (size_t k = 0; k < texels; ++k) {
+          const Color c{img.rgb[3 * k], img.rgb[3 * k + 1], img.rgb[3 * k + 2]};
+          if (!is_finite(c) || c.x < 0.f || c.y < 0.f || c.z < 0.f)
+            error(at, "bitmap '" + d.path + "': texel (" + std::to_string(k % size_t(img.width)) + ", " +
+                          std::to_string(k / size_t(img.width)) + ") is negative or not finite");
+          sum.add(c);
+        }
+        stats = sum.done(texels);
+        bm.width = uint32_t(img.width), bm.height = uint32_t(img.height);
+        index = int32_t(scene_.add_bitmap(bm, d.to_uv, img.rgb));
+      } else {
+        bm.width = uint32_t(f->img8.width), bm.height = uint32_t(f->img8.height);
+        index = int32_t(scene_.add_bitmap(bm, d.to_uv, f->img8.rgba));
+        if (d.srgb) stats = f->srgb_stats;
+      }
+    } catch (const std::length_error& e) {
+      error(at, e.what());
+    }
+    image_files_[d.path] = index;
   }
-  for (int k = 0; k < 3; ++k) stats.mean[k] = float(sum[k] / double(texels));
   image_cache_[key] = index;
   return push_texture_stats(index, stats);
 }
@@ -110,7 +185,7 @@ int32_t SceneBuilder::add_checkerboard(const SourceLoc& at, Color color0, Color 
   } catch (const std::length_error& e) {
     error(at, e.what());
   }
-  return push_texture_stats(index, {(color0 + color1) * 0.5f, vmin(color0, color1), vmax(color0, color1)});
+  return push_texture_stats(index, TextureStats{(color0 + color1) * 0.5f, vmin(color0, color1), vmax(color0, color1)});
 }
 
 TextureStats SceneBuilder::bitmap_stats(const Texture& t) const {
@@ -118,19 +193,10 @@ TextureStats SceneBuilder::bitmap_stats(const Texture& t) const {
   v.texels8 = scene_.texels8.data();
   v.texelsf = scene_.texelsf.data();
   v.srgb_table = scene_.srgb_table.data();
-  TextureStats stats;
-  double sum[3] = {0, 0, 0};
-  stats.min = {INFINITY, INFINITY, INFINITY};
-  stats.max = {0.f, 0.f, 0.f};
+  StatsSum sum;
   const uint32_t n = t.bitmap.width * t.bitmap.height;
-  for (uint32_t k = 0; k < n; ++k) {
-    const Color c = t.scale * v.texel(t.bitmap, k);
-    for (int j = 0; j < 3; ++j) sum[j] += c[j];
-    stats.min = vmin(stats.min, c);
-    stats.max = vmax(stats.max, c);
-  }
-  for (int j = 0; j < 3; ++j) stats.mean[j] = float(sum[j] / double(n));
-  return stats;
+  for (uint32_t k = 0; k < n; ++k) sum.add(t.scale * v.texel(t.bitmap, k));
+  return sum.done(n);
 }
 
 int32_t SceneBuilder::add_image8(const SourceLoc& at, BitmapTexture bm, const UvTransform& to_uv,
@@ -143,7 +209,7 @@ int32_t SceneBuilder::add_image8(const SourceLoc& at, BitmapTexture bm, const Uv
   } catch (const std::length_error& e) {
     error(at, e.what());
   }
-  return push_texture_stats(index, bitmap_stats(scene_.textures[size_t(index)]));
+  return push_texture_stats(index, std::nullopt);
 }
 
 int32_t SceneBuilder::add_texture(const SourceLoc& at, const Texture& t) {
@@ -160,7 +226,7 @@ int32_t SceneBuilder::add_texture(const SourceLoc& at, const Texture& t) {
   } catch (const std::length_error& e) {
     error(at, e.what());
   }
-  return push_texture_stats(index, bitmap_stats(t));
+  return push_texture_stats(index, std::nullopt);
 }
 
 // ---- materials ----
@@ -385,6 +451,7 @@ Scene SceneBuilder::finish() {
   if (scene_.num_triangles() == 0 && scene_.spheres.empty()) error({}, "the scene has no shapes");
   if (!has_camera_) error({}, "the scene has no camera");
   scene_.instances = num_instances_;
+  images_ahead_.clear();
   scene_.compile();
   return std::move(scene_);
 }

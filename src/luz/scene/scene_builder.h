@@ -8,15 +8,16 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "luz/io/image.h"
+#include "luz/io/read_ahead.h"
 #include "luz/math/transform.h"
 #include "luz/scene/scene.h"
 
 namespace luz {
-
-struct Image;
 
 // Where something was written: a file and a line (0: unknown or not a text
 // file; readers of binary files name the byte offset in the message).
@@ -82,8 +83,14 @@ class SceneBuilder {
 
   // ---- textures ----
   // An image file read once per (path, srgb, filter, wrap, to_uv): a second
-  // request returns the same index. Texels must be finite and not negative.
+  // request returns the same index, one with other settings shares the
+  // texels. Texels must be finite and not negative.
   int32_t add_image_texture(const SourceLoc& at, const ImageTextureDesc& desc);
+  // Reads these image files in parallel ahead of the add_image_texture calls
+  // that name them (a reader lists what its scene names; a file it misses is
+  // read when named). The scene is the same as without, and so is any
+  // error: a file that fails to read fails the call that names it.
+  void read_images_ahead(const std::vector<std::string>& paths);
   int32_t add_checkerboard(const SourceLoc& at, Color color0, Color color1, const UvTransform& to_uv);
   // An 8-bit image already in memory (glTF's embedded and binary-chunk
   // images): packed RGBA texels, rows top to bottom.
@@ -92,7 +99,8 @@ class SceneBuilder {
   // Another view of texels already added (a channel, a scale, other lookup
   // settings: texture.h), e.g. a copy of an earlier texture changed.
   int32_t add_texture(const SourceLoc& at, const Texture& texture);
-  const TextureStats& texture_stats(int32_t texture) const { return texture_stats_.at(size_t(texture)); }
+  // (Of textures added as texels or views of them: computed when first asked for.)
+  const TextureStats& texture_stats(int32_t texture) const;
 
   // ---- materials ----
   uint32_t add_material(const SourceLoc& at, const MaterialDesc& desc);
@@ -140,8 +148,17 @@ class SceneBuilder {
   void check_emission(const SourceLoc& at, const AreaEmission& e) const;
   void check_shape_material(const SourceLoc& at, uint32_t material, const AreaEmission* emission,
                             bool has_uvs, const char* what) const;
-  int32_t push_texture_stats(int32_t index, const TextureStats& stats);
+  int32_t push_texture_stats(int32_t index, const std::optional<TextureStats>& stats);
   TextureStats bitmap_stats(const Texture& texture) const;
+
+  // An image file as add_image_texture reads it: linear float texels, or
+  // 8-bit ones with their statistics read as sRGB.
+  struct ImageFile {
+    Image img;
+    Image8 img8;
+    TextureStats srgb_stats;
+  };
+  static ImageFile read_image_file(const std::string& path);
 
   struct Object {
     std::string name;
@@ -151,8 +168,10 @@ class SceneBuilder {
 
   std::string file_;
   Scene scene_;
-  std::vector<TextureStats> texture_stats_;  // one per scene_.textures entry
+  mutable std::vector<std::optional<TextureStats>> texture_stats_;  // one per scene_.textures entry
   std::map<std::string, int32_t> image_cache_;
+  std::map<std::string, int32_t> image_files_;  // path -> its first texture
+  ReadAhead<ImageFile> images_ahead_;
   std::vector<Object> objects_;
   size_t num_instances_ = 0;
   int32_t default_material_ = -1;

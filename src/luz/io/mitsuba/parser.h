@@ -41,6 +41,9 @@
 
 #include "luz/io/error.h"
 #include "luz/io/load.h"
+#include "luz/io/mesh_obj.h"
+#include "luz/io/mesh_ply.h"
+#include "luz/io/read_ahead.h"
 #include "luz/math/transform.h"
 #include "luz/scene/scene_builder.h"
 
@@ -190,9 +193,14 @@ class MitsubaParser {
   // to the file being read, then in each search folder (-a); it must be a
   // regular file.
   fs::path resolve_file(pugi::xml_node n, const std::string& file, const char* what) const;
-  // A mesh file; a missing .obj is replaced, with a warning, by a .ply of the
-  // same name where one is found (Bitterli's scenes ship both forms).
-  fs::path mesh_file(pugi::xml_node n, const std::string& file, const std::string& type);
+  // A mesh file; a missing .obj is replaced by a .ply of the same name where
+  // one is found (Bitterli's scenes ship both forms): `replaced` says so.
+  fs::path mesh_file(pugi::xml_node n, const std::string& file, const std::string& type, bool& replaced) const;
+  // Reads the bitmaps and OBJ and PLY meshes that the scene file names (not
+  // its included files) in parallel, ahead of the translation, which takes
+  // them as it meets them. A problem in the file itself is left for the
+  // translation to report.
+  void read_ahead(pugi::xml_node root);
   // <include filename="...">: the file's elements as if written here.
   void parse_include(pugi::xml_node n);
   void parse_top_level(pugi::xml_node parent);
@@ -203,8 +211,8 @@ class MitsubaParser {
   void parse_shapegroup(pugi::xml_node n);
   void parse_instance(pugi::xml_node n);
   void add_shape(pugi::xml_node n, int64_t object);
-  static void read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, std::vector<Vec3>& pos,
-                            std::vector<Vec3>& nrm, std::vector<Vec2>& uv, std::vector<uint32_t>& idx);
+  void read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, std::vector<Vec3>& pos,
+                     std::vector<Vec3>& nrm, std::vector<Vec2>& uv, std::vector<uint32_t>& idx);
 
   std::string path_;
   Defines defines_;
@@ -215,6 +223,8 @@ class MitsubaParser {
   std::map<std::string, uint32_t> textures_;  // top-level <texture id>, by id
   std::map<std::string, uint32_t> shapegroups_;  // the builder's objects, by id
   std::map<std::string, std::vector<uint8_t>> serialized_files_;  // by path
+  ReadAhead<std::shared_ptr<const ObjFile>> objs_ahead_;
+  ReadAhead<PlyMesh> plys_ahead_;
   std::vector<std::string> search_paths_;
   std::vector<std::unique_ptr<pugi::xml_document>> included_;  // kept: nodes point into them
   std::vector<std::string> include_stack_;  // files being read, outermost first

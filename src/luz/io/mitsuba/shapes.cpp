@@ -235,7 +235,10 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
                               "(said once for the scene)");
       warned_smooth_angle_ = true;
     }
-    const fs::path full = mesh_file(n, file, type);
+    bool replaced = false;
+    const fs::path full = mesh_file(n, file, type, replaced);
+    if (replaced)
+      builder_.warn(loc(n), "'" + file + "' is missing: read '" + full.string() + "' (the same name as PLY) instead");
     if (type == "obj") {
       // Mitsuba flips OBJ's v by default (read_obj does); flip_tex_coords false keeps vt as written.
       const bool flip_uv = p.get_bool("flip_tex_coords", true);
@@ -243,7 +246,9 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
       if (full.extension() == ".ply") {  // mesh_file's fallback: the same mesh as PLY
         read_mesh_ply(full, flip_uv, textured, pos, nrm, uv, idx);
       } else {
-        ObjMesh mesh = read_obj(full.string(), false, textured ? ObjTexcoords::Yes : ObjTexcoords::No);
+        const std::optional<std::shared_ptr<const ObjFile>> ahead = objs_ahead_.take(full.string());
+        ObjMesh mesh = obj_mesh(ahead ? **ahead : *read_obj_file(full.string()),
+                                textured ? ObjTexcoords::Yes : ObjTexcoords::No);
         pos = std::move(mesh.positions);
         nrm = std::move(mesh.normals);
         uv = std::move(mesh.texcoords);
@@ -298,7 +303,8 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
 // A PLY mesh's arrays; v flipped (1 - v) when flip_uv.
 void MitsubaParser::read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, std::vector<Vec3>& pos,
                                   std::vector<Vec3>& nrm, std::vector<Vec2>& uv, std::vector<uint32_t>& idx) {
-  PlyMesh mesh = read_ply(full.string());
+  std::optional<PlyMesh> ahead = plys_ahead_.take(full.string());
+  PlyMesh mesh = ahead ? std::move(*ahead) : read_ply(full.string());
   pos = std::move(mesh.positions);
   nrm = std::move(mesh.normals);
   if (textured) uv = std::move(mesh.uvs);

@@ -2,6 +2,8 @@
 // names (see parser.h).
 #include <cmath>
 
+#include <tbb/parallel_invoke.h>
+
 #include "luz/io/image.h"
 #include "luz/io/mitsuba/parser.h"
 
@@ -18,7 +20,8 @@ fs::path MitsubaParser::resolve_file(pugi::xml_node n, const std::string& file, 
                "': " + (fs::exists(full, ec) ? "not a regular file" : "no such file"));
 }
 
-fs::path MitsubaParser::mesh_file(pugi::xml_node n, const std::string& file, const std::string& type) {
+fs::path MitsubaParser::mesh_file(pugi::xml_node n, const std::string& file, const std::string& type,
+                                  bool& replaced) const {
   const std::string what = (type == "obj" ? "OBJ" : type == "ply" ? "PLY" : type) + " file";
   const std::string ext = lower_extension(file);
   if (type == "obj" && ext == ".obj") {
@@ -28,7 +31,7 @@ fs::path MitsubaParser::mesh_file(pugi::xml_node n, const std::string& file, con
       const fs::path ply = fs::path(file).replace_extension(".ply");
       try {
         const fs::path full = resolve_file(n, ply.string(), what.c_str());
-        builder_.warn(loc(n), "'" + file + "' is missing: read '" + full.string() + "' (the same name as PLY) instead");
+        replaced = true;
         return full;
       } catch (const InputError&) {
       }
@@ -36,6 +39,33 @@ fs::path MitsubaParser::mesh_file(pugi::xml_node n, const std::string& file, con
     }
   }
   return resolve_file(n, file, what.c_str());
+}
+
+void MitsubaParser::read_ahead(pugi::xml_node root) {
+  std::vector<std::string> images, objs, plys;
+  std::vector<pugi::xml_node> stack{root};
+  while (!stack.empty()) {
+    const pugi::xml_node n = stack.back();
+    stack.pop_back();
+    for (pugi::xml_node c = n.last_child(); c; c = c.previous_sibling())
+      if (c.type() == pugi::node_element) stack.push_back(c);
+    const std::string tag = n.name(), type = n.attribute("type").value();
+    const bool bitmap = tag == "texture" && type == "bitmap";
+    if (!bitmap && !(tag == "shape" && (type == "obj" || type == "ply"))) continue;
+    for (pugi::xml_node c : n.children("string")) {
+      if (std::string(c.attribute("name").value()) != "filename") continue;
+      try {
+        const std::string file = attr(c, "value");
+        bool replaced = false;
+        const fs::path full = bitmap ? resolve_file(c, file, "bitmap") : mesh_file(c, file, type, replaced);
+        (bitmap ? images : type == "obj" && full.extension() != ".ply" ? objs : plys).push_back(full.string());
+      } catch (const InputError&) {
+      }
+    }
+  }
+  tbb::parallel_invoke([&] { builder_.read_images_ahead(images); },
+                       [&] { objs_ahead_.run(largest_first(objs), read_obj_file); },
+                       [&] { plys_ahead_.run(largest_first(plys), [](const std::string& f) { return read_ply(f); }); });
 }
 
 UvTransform MitsubaParser::uv_transform(pugi::xml_node t, Props& p) {

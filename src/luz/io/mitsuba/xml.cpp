@@ -67,6 +67,7 @@ Scene MitsubaParser::parse() {
   }
 
   include_stack_.push_back(fs::absolute(path_).lexically_normal().string());
+  read_ahead(root);
   parse_top_level(root);
   if (!have_sensor_) throw InputError(path_, 0, "the scene has no <sensor>");
   return builder_.finish();

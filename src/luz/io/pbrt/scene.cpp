@@ -22,7 +22,11 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <set>
+#include <sstream>
+
+#include <tbb/parallel_invoke.h>
 
 #include "luz/bsdf/fresnel.h"
 #include "luz/io/error.h"
@@ -30,6 +34,8 @@
 #include "luz/io/load.h"
 #include "luz/io/mesh_ply.h"
 #include "luz/io/pbrt/parser.h"
+#include "luz/io/pbrt/tokenizer.h"
+#include "luz/io/read_ahead.h"
 #include "luz/math/transform.h"
 #include "luz/scene/scene_builder.h"
 #include "luz/texture/texture.h"
@@ -703,7 +709,8 @@ class PbrtScene final : public ParserTarget {
         builder_.warn(at, "plymesh displacement is not supported: the mesh is rendered undisplaced");
       }
       const std::string path = find_file(at, file, "PLY file");
-      PlyMesh ply = read_ply(path);
+      std::optional<PlyMesh> ahead = plys_ahead_.take(path);
+      PlyMesh ply = ahead ? std::move(*ahead) : read_ply(path);
       mesh.positions = std::move(ply.positions);
       mesh.normals = std::move(ply.normals);
       mesh.uvs = std::move(ply.uvs);
@@ -912,37 +919,88 @@ class PbrtScene final : public ParserTarget {
   // the scene's directory (a scene shipped in several formats side by side,
   // sharing textures: the staircase's textures/X.tga as ../mitsuba/textures/X.jpg).
   std::string find_file(const SourceLoc& at, const std::string& name, const char* what) {
-    const fs::path rel(name);
-    const fs::path full = rel.is_absolute() ? rel : search_dir_ / rel;
+    bool other_format = false;
+    const fs::path found = locate_file(name, other_format);
     std::error_code ec;
-    if (fs::is_regular_file(full, ec)) return full.string();
-    static const char* kImageExts[] = {".exr", ".hdr", ".pfm", ".png", ".jpg", ".jpeg", ".tga", ".bmp"};
-    const std::string ext = lower_extension(full.string());
-    const bool image = std::find_if(std::begin(kImageExts), std::end(kImageExts),
-                                    [&](const char* e) { return ext == e; }) != std::end(kImageExts);
-    if (image) {
-      std::vector<fs::path> dirs{full.parent_path()};
-      if (!rel.is_absolute() && fs::is_directory(search_dir_.parent_path(), ec)) {
-        std::vector<fs::path> siblings;
-        for (const fs::directory_entry& d : fs::directory_iterator(search_dir_.parent_path(), ec))
-          if (d.is_directory(ec) && d.path() != search_dir_) siblings.push_back(d.path());
-        std::sort(siblings.begin(), siblings.end());
-        for (const fs::path& s : siblings) dirs.push_back((s / rel).parent_path());
-      }
-      for (const fs::path& dir : dirs)
-        for (const char* e : kImageExts) {
-          const fs::path alt = dir / full.filename().replace_extension(e);
-          if (alt != full && fs::is_regular_file(alt, ec)) {
-            builder_.warn(at, std::string(what) + " '" + name + "' not found: using '" +
-                                  fs::relative(alt, search_dir_, ec).string() + "' (same name, another format)");
-            return alt.string();
-          }
-        }
-    }
+    if (other_format)
+      builder_.warn(at, std::string(what) + " '" + name + "' not found: using '" +
+                            fs::relative(found, search_dir_, ec).string() + "' (same name, another format)");
+    if (!found.empty()) return found.string();
+    const fs::path full = fs::path(name).is_absolute() ? fs::path(name) : search_dir_ / name;
     error(at, std::string("cannot open ") + what + " '" + full.string() + "': " +
                   (fs::exists(full, ec) ? "not a regular file" : "no such file"));
   }
 
+  // The file find_file takes for `name` (empty: none), other_format set when
+  // it is the stand-in of another image format.
+  fs::path locate_file(const std::string& name, bool& other_format) const {
+    const fs::path rel(name);
+    const fs::path full = rel.is_absolute() ? rel : search_dir_ / rel;
+    std::error_code ec;
+    if (fs::is_regular_file(full, ec)) return full;
+    if (!is_image_file(full.string())) return {};
+    std::vector<fs::path> dirs{full.parent_path()};
+    if (!rel.is_absolute() && fs::is_directory(search_dir_.parent_path(), ec)) {
+      std::vector<fs::path> siblings;
+      for (const fs::directory_entry& d : fs::directory_iterator(search_dir_.parent_path(), ec))
+        if (d.is_directory(ec) && d.path() != search_dir_) siblings.push_back(d.path());
+      std::sort(siblings.begin(), siblings.end());
+      for (const fs::path& s : siblings) dirs.push_back((s / rel).parent_path());
+    }
+    for (const fs::path& dir : dirs)
+      for (const char* e : kImageExts) {
+        const fs::path alt = dir / full.filename().replace_extension(e);
+        if (alt != full && fs::is_regular_file(alt, ec)) {
+          other_format = true;
+          return alt;
+        }
+      }
+    return {};
+  }
+
+  static constexpr const char* kImageExts[] = {".exr", ".hdr", ".pfm", ".png", ".jpg", ".jpeg", ".tga", ".bmp"};
+  static bool is_image_file(const std::string& path) {
+    const std::string ext = lower_extension(path);
+    return std::find_if(std::begin(kImageExts), std::end(kImageExts), [&](const char* e) { return ext == e; }) !=
+           std::end(kImageExts);
+  }
+
+ public:
+  // Reads the image maps and PLY meshes that the scene file names (not the
+  // files it includes) in parallel, ahead of the translation, which takes
+  // them as it meets them. A problem in the file itself is left for the
+  // translation to report.
+  void read_ahead() {
+    std::vector<std::string> images, plys;
+    try {
+      Tokenizer tok = Tokenizer::from_file(path_);
+      std::string directive;
+      for (Token t; tok.next(t);) {
+        if (!t.quoted()) {
+          if (std::isupper((unsigned char)t.text.front())) directive = t.text;
+          continue;
+        }
+        std::istringstream decl(unquote(path_, t));
+        std::string type, name;
+        decl >> type >> name;
+        const bool image = directive == "Texture" ? name == "filename" : name == "normalmap";
+        if (type != "string" || !(image || (directive == "Shape" && name == "filename"))) continue;
+        Token v;
+        if (!tok.next(v) || (v.is("[") && !tok.next(v))) break;
+        if (!v.quoted()) continue;
+        bool other_format = false;
+        const fs::path found = locate_file(unquote(path_, v), other_format);
+        if (found.empty()) continue;
+        if (image) images.push_back(found.string());
+        else if (lower_extension(found.string()) == ".ply") plys.push_back(found.string());
+      }
+    } catch (const InputError&) {
+    }
+    tbb::parallel_invoke([&] { builder_.read_images_ahead(images); },
+                         [&] { plys_ahead_.run(largest_first(plys), [](const std::string& f) { return read_ply(f); }); });
+  }
+
+ private:
   static std::vector<uint32_t> checked_indices(const SourceLoc& at, const std::vector<int>& idx, size_t nv, int per) {
     if (idx.size() % size_t(per) != 0)
       throw InputError(at.file, at.line, "\"integer indices\" count " + std::to_string(idx.size()) + " is not a multiple of " + std::to_string(per));
@@ -1316,6 +1374,7 @@ class PbrtScene final : public ParserTarget {
   std::string path_;
   fs::path search_dir_;
   SceneBuilder builder_;
+  ReadAhead<PlyMesh> plys_ahead_;
   GraphicsState gs_;
   std::vector<Saved> stack_;
   std::map<std::string, Matrix4> named_coords_;
@@ -1337,6 +1396,7 @@ class PbrtScene final : public ParserTarget {
 
 Scene load_pbrt(const std::string& path) {
   pbrt::PbrtScene scene(path);
+  scene.read_ahead();
   pbrt::parse_file(path, scene);
   return scene.finish();
 }
