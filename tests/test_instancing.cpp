@@ -21,6 +21,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -251,6 +252,26 @@ Tally compare(const char* name, const Scene& si, const TracerI& ti, const Scene&
   return c;
 }
 
+// Closest-hit queries per second (millions, one thread, best of 3): a figure
+// for bench/RESULTS.md, not a check.
+template <class Tracer>
+double mrays(const Tracer& t, const std::vector<Ray>& rays) {
+  double best = 0;
+  for (int round = 0; round < 3; ++round) {
+    const auto t0 = std::chrono::steady_clock::now();
+    size_t hits = 0;
+    for (const Ray& r : rays) {
+      Hit h;
+      hits += t.intersect(r, h);
+    }
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    volatile size_t sink = hits;  // keeps the queries
+    (void)sink;
+    best = std::max(best, double(rays.size()) / s * 1e-6);
+  }
+  return best;
+}
+
 struct Fixture {
   Scene inst = instanced_scene();
   Scene flat = flattened(inst);
@@ -288,6 +309,8 @@ TEST(Instancing, EmbreeInstancesHitAsTheFlattenedScene) {
   const Fixture& fx = fixture();
   EmbreeScene ei(fx.inst), ef(fx.flat);
   compare("embree", fx.inst, ei.tracer(), fx.flat, ef.tracer(), fx.rays);
+  std::printf("embree: %.2f Mrays/s instanced, %.2f flattened (one thread)\n", mrays(ei.tracer(), fx.rays),
+              mrays(ef.tracer(), fx.rays));
 }
 
 // Luz's BVH (two levels: bvh.h) against its own single-level traversal of
@@ -302,6 +325,8 @@ TEST(Instancing, TwoLevelBvhHitsAsTheFlattenedScene) {
   compare("bvh", fx.inst, ti, fx.flat, tf, fx.rays);
   EmbreeScene ef(fx.flat);
   compare("bvh, embree", fx.inst, ti, fx.flat, ef.tracer(), fx.rays);
+  std::printf("bvh: %.2f Mrays/s instanced, %.2f flattened (one thread, host); %.1f KiB against %.1f KiB\n",
+              mrays(ti, fx.rays), mrays(tf, fx.rays), double(bi.bytes()) / 1024, double(bf.bytes()) / 1024);
 }
 
 // Rays aimed through the cut-away quads at the spheres behind them: every
