@@ -50,8 +50,10 @@
 #include "luz/accel/embree_tracer.h"
 #include "luz/film/filter.h"
 #include "luz/io/load.h"
+#include "geometry_helpers.h"
 
 using namespace luz;
+using luz_test::Rng;
 
 namespace {
 
@@ -59,19 +61,6 @@ const std::string kCornell = LUZ_SOURCE_DIR "/scenes/cornell-box.xml";
 const std::string kSponza = LUZ_SHARED_DIR "/scenes/sponza-dabrovic-obj/sponza.obj";
 
 double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
-
-// Deterministic random numbers (splitmix64).
-struct Rng {
-  uint64_t s;
-  explicit Rng(uint64_t seed) : s(seed * 0x9E3779B97F4A7C15ull + 0x1234567ull) {}
-  uint64_t next() {
-    uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  float uniform() { return float(next() >> 40) * 0x1p-24f; }
-};
 
 Vec3 uniform_direction(Rng& rng) {
   float z = 1.f - 2.f * rng.uniform(), phi = 2.f * kPi * rng.uniform();

@@ -48,6 +48,7 @@
 
 #include "chi2.h"
 #include "cli_helpers.h"
+#include "geometry_helpers.h"
 #include "luz/accel/bvh_build.h"
 #include "luz/accel/embree_tracer.h"
 #include "luz/device/cpu/render.h"
@@ -189,6 +190,35 @@ Scene normal_mapped_cornell(int res, uint32_t spp, uint64_t seed) {
     ++mapped;
   }
   EXPECT_GE(mapped, 2u);
+  return s;
+}
+
+// The box with a sphere mesh (normals, uvs) stored once and placed three
+// times: scaled, stretched, mirrored. The two-level BVH and the instanced
+// Interaction in the pass logic.
+Scene instanced_cornell(int res, uint32_t spp, uint64_t seed) {
+  Scene s = cornell(res, spp, seed);
+  const Vec3 c = (s.bounds_min + s.bounds_max) * 0.5f;
+  const float r = 0.12f * (s.bounds_max.x - s.bounds_min.x);
+  const uint32_t obj = s.add_object();
+  const TriangleMesh m = luz_test::uv_sphere(24, 12);
+  s.add_mesh(m.positions, m.normals, m.indices, s.add_material(Bsdf::make_diffuse({0.6f, 0.6f, 0.3f})), nullptr,
+             m.uvs);
+  // to_world: diag(scale), then + t; to_object its inverse.
+  const Vec3 scales[3] = {{r, r, r}, {r, 1.6f * r, 0.7f * r}, {-r, r, r}};
+  const Vec3 offsets[3] = {{-2.2f * r, -r, -2.5f * r}, {0, 0.5f * r, -2.f * r}, {2.2f * r, -r, -2.5f * r}};  // before the blocks
+  for (int k = 0; k < 3; ++k) {
+    Affine3 to_world, to_object;
+    for (int a = 0; a < 3; ++a) {
+      const float t = c[a] + offsets[k][a];
+      to_world.m[a][a] = scales[k][a];
+      to_world.m[a][3] = t;
+      to_object.m[a][a] = 1.f / scales[k][a];
+      to_object.m[a][3] = -t / scales[k][a];
+    }
+    s.add_instance(obj, to_world, to_object);
+  }
+  s.compile();
   return s;
 }
 
@@ -725,6 +755,27 @@ TEST(CudaPassOnHost, NormalMappedSceneMatchesCpu) {
   expect_same_samples(passes_on_host(s, 1), cpu(s), 2e-3, "host passes vs CPU, normal-mapped, 1 spp");
 }
 
+// Instances: the two-level BVH and instanced hits in the pass logic give the
+// CPU's (Embree's instances) samples.
+TEST(CudaPassOnHost, InstancedSceneMatchesCpu) {
+  Scene s = instanced_cornell(64, 1, 47);
+  ASSERT_EQ(s.instances.size(), 3u);
+  {  // the camera's central ray finds the middle instance, in both tracers
+    const Bvh bvh = build_bvh(s.view());
+    EmbreeScene e(s);
+    const Ray ray = s.camera.generate_ray(30.3f, 33.7f);  // off the mesh's edges
+    Hit he, hb;
+    ASSERT_TRUE(e.tracer().intersect(ray, he));
+    ASSERT_TRUE(make_bvh_tracer(bvh, s.view()).intersect(ray, hb));
+    EXPECT_EQ(he.inst, 1u);
+    EXPECT_EQ(hb.inst, 1u);
+    EXPECT_EQ(he.prim, hb.prim);
+  }
+  expect_same_samples(passes_on_host(s, 1), cpu(s), 2e-3, "host passes vs CPU, instanced, 1 spp");
+  Scene a = instanced_cornell(48, 64, 48), b = instanced_cornell(48, 64, 49);
+  expect_agree(passes_on_host(a, 16), cpu(b), "host passes vs CPU, instanced, 64 spp, independent seeds");
+}
+
 // ---------------------------------------------------------------- on a GPU
 
 #define REQUIRE_GPU()                                                          \
@@ -862,6 +913,12 @@ TEST(CudaDevice, MaskedSceneMatchesCpu) {
 TEST(CudaDevice, NormalMappedSceneMatchesCpu) {
   REQUIRE_GPU();
   gpu_matches_cpu(normal_mapped_cornell, 128, 256, 16, "normal and bump maps");
+}
+
+// The objects' trees and the instances are uploaded and traversed on the GPU.
+TEST(CudaDevice, InstancedSceneMatchesCpu) {
+  REQUIRE_GPU();
+  gpu_matches_cpu(instanced_cornell, 128, 256, 50, "instanced");
 }
 
 // So are the lights and their data array.

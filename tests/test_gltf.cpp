@@ -282,17 +282,20 @@ TEST_F(GltfFiles, ModesIndicesTransformsCameraLights) {
   ASSERT_EQ(s.num_triangles(), 8u);  // 2 strip + 2 fan per node, points skipped
   auto tri = [&](uint32_t t, int k) { return s.positions[s.indices[3 * t + uint32_t(k)]]; };
   auto normal_z = [&](uint32_t t) { return cross(tri(t, 1) - tri(t, 0), tri(t, 2) - tri(t, 0)).z; };
+  // Node 0's mesh (used twice, so an object) is placed once: flattened when
+  // the scene is finished, after node 1's mirrored copy (triangles 0-3).
+  const uint32_t n0 = 4, n1 = 0;
   // Strip {v0,v1,v2}, {v1,v3,v2}; fan over 0 1 3 2: {v1,v3,v0}, {v3,v2,v0}:
   // all counter-clockwise seen from +z.
-  EXPECT_EQ(tri(0, 0).x, 0.f);
-  EXPECT_EQ(tri(1, 0).x, 1.f);  // the second strip triangle starts at v1, then v3
-  EXPECT_EQ(tri(1, 1).y, 1.f);
-  EXPECT_EQ(tri(1, 1).x, 1.f);
-  EXPECT_EQ(tri(2, 2).x, 0.f);  // the fan's centre last
-  EXPECT_EQ(tri(2, 2).y, 0.f);
-  EXPECT_EQ(tri(0, 0).z, -5.f);
+  EXPECT_EQ(tri(n0, 0).x, 0.f);
+  EXPECT_EQ(tri(n0 + 1, 0).x, 1.f);  // the second strip triangle starts at v1, then v3
+  EXPECT_EQ(tri(n0 + 1, 1).y, 1.f);
+  EXPECT_EQ(tri(n0 + 1, 1).x, 1.f);
+  EXPECT_EQ(tri(n0 + 2, 2).x, 0.f);  // the fan's centre last
+  EXPECT_EQ(tri(n0 + 2, 2).y, 0.f);
+  EXPECT_EQ(tri(n0, 0).z, -5.f);
   for (uint32_t t = 0; t < 8; ++t) EXPECT_GT(normal_z(t), 0.f) << "triangle " << t << " (mirrored node: winding reversed)";
-  EXPECT_EQ(tri(4, 2).x, -1.f);  // the mirrored copy: {v0, v2, v1}
+  EXPECT_EQ(tri(n1, 2).x, -1.f);  // the mirrored copy: {v0, v2, v1}
   // Camera: at z = 10 looking down -z, 2:1.
   EXPECT_EQ(s.camera.origin.z, 10.f);
   EXPECT_EQ(s.camera.z_axis.z, -1.f);

@@ -231,6 +231,11 @@ TEST_F(MitsubaFormats, InstancesGiveTheFlattenedGeometry) {
                                "<shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\"><scale value=\"2\"/></transform></shape>\n"));
   luz::Scene flat = load(scene("<shape type=\"rectangle\"><transform name=\"to_world\"><translate x=\"1\"/><translate y=\"3\"/></transform></shape>\n"
                                "<shape type=\"rectangle\"><transform name=\"to_world\"><translate x=\"1\"/><scale value=\"2\"/></transform></shape>\n"));
+  // Stored once, placed twice; flattened (exact here: the maps are exact in
+  // floats), the same triangles as the flat scene's.
+  ASSERT_EQ(inst.objects.size(), 1u);
+  ASSERT_EQ(inst.instances.size(), 2u);
+  inst.flatten_instances();
   ASSERT_EQ(inst.positions.size(), flat.positions.size());
   for (size_t k = 0; k < flat.positions.size(); ++k) {
     EXPECT_EQ(inst.positions[k].x, flat.positions[k].x);

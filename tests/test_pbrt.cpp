@@ -467,7 +467,9 @@ TEST_F(PbrtScene, ShapesLightsAttributesAndInstances) {
       "Shape \"sphere\"\n"
       "ObjectBegin \"tri\"\nShape \"trianglemesh\" \"point3 P\" [ 0 0 0 1 0 0 0 1 0 ]\nObjectEnd\n"
       "Translate 0 0 -2\nObjectInstance \"tri\"\nTranslate 0 0 -2\nObjectInstance \"tri\"\n")));
-  EXPECT_EQ(s.num_triangles(), 256u + 2u + 2u);  // disk (a fan of 256), planar patch, two instances
+  EXPECT_EQ(s.num_triangles(), 256u + 2u);  // disk (a fan of 256), planar patch
+  EXPECT_EQ(s.instances.size(), 2u);          // the object, stored once, placed twice
+  EXPECT_EQ(s.num_instanced_triangles(), 2u);
   ASSERT_EQ(s.spheres.size(), 1u);
   EXPECT_EQ(s.spheres[0].radius, 0.25f);  // from the Attribute
   EXPECT_TRUE(s.warnings.empty()) << s.warnings[0];

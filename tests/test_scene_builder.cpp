@@ -1,5 +1,5 @@
 // SceneBuilder: the checks every format shares, each refusing with the
-// place it was given; instances as the flattened meshes they stand for.
+// place it was given; objects placed once flattened, others instanced.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -131,9 +131,9 @@ TEST(SceneBuilder, NonFiniteNormalsShadeFlatWithAWarning) {
   EXPECT_EQ(s.normals[1].z, 0.f);
 }
 
-// An instance adds its object's meshes transformed: the same positions (bit
-// for bit) and normals as adding the transformed mesh directly.
-TEST(SceneBuilder, InstancesEqualTheirFlattenedMeshes) {
+// An object placed once is flattened: the same positions (bit for bit) and
+// normals as adding the transformed mesh directly.
+TEST(SceneBuilder, AnObjectPlacedOnceIsItsFlattenedMeshes) {
   const luz::Matrix4 t = luz::Matrix4::translate({1, 2, 3}) * luz::Matrix4::rotate({0, 1, 1}, 30.0) *
                          luz::Matrix4::scale({2, 1, 0.5f});
   TriangleMesh m = quad();
@@ -144,18 +144,19 @@ TEST(SceneBuilder, InstancesEqualTheirFlattenedMeshes) {
   const uint32_t obj = inst.begin_object(kAt, "quad");
   inst.add_object_mesh(kAt, obj, m, mat);
   inst.add_instance(kAt, obj, t);
-  inst.add_instance(kAt, obj, luz::Matrix4::translate({0, 0, 5}));
-  EXPECT_EQ(inst.num_instances(), 2u);
+  EXPECT_EQ(inst.num_instances(), 1u);
+  inst.frame_bounds(8, 8);
 
   SceneBuilder flat("b");
-  TriangleMesh m1 = m, m2 = m;
+  TriangleMesh m1 = m;
   for (luz::Vec3& p : m1.positions) p = t.point(p);
   for (luz::Vec3& n : m1.normals) n = t.normal(n);
-  for (luz::Vec3& p : m2.positions) p = luz::Matrix4::translate({0, 0, 5}).point(p);
   flat.add_mesh(kAt, m1, flat.default_material());
-  flat.add_mesh(kAt, m2, flat.default_material());
+  flat.frame_bounds(8, 8);
 
-  const luz::Scene &a = inst.scene(), &b = flat.scene();
+  const luz::Scene a = inst.finish(), b = flat.finish();
+  EXPECT_TRUE(a.objects.empty());
+  EXPECT_EQ(a.flattened_instances, 1u);
   ASSERT_EQ(a.positions.size(), b.positions.size());
   for (size_t k = 0; k < a.positions.size(); ++k) {
     EXPECT_EQ(a.positions[k].x, b.positions[k].x);
@@ -165,6 +166,91 @@ TEST(SceneBuilder, InstancesEqualTheirFlattenedMeshes) {
     EXPECT_EQ(a.normals[k].z, b.normals[k].z);
   }
   EXPECT_EQ(a.indices, b.indices);
+}
+
+// An object placed twice is stored once and instanced; a placement by a
+// singular map is flattened (it has no inverse to trace rays through).
+TEST(SceneBuilder, AnObjectPlacedTwiceIsStoredOnce) {
+  const luz::Matrix4 t = luz::Matrix4::translate({1, 2, 3}) * luz::Matrix4::rotate({0, 1, 1}, 30.0) *
+                         luz::Matrix4::scale({-2, 1, 0.5f});
+  SceneBuilder b("a");
+  b.add_mesh(kAt, quad(), b.default_material());  // world triangles come first
+  const uint32_t obj = b.begin_object(kAt, "quad");
+  b.add_object_mesh(kAt, obj, quad(), b.default_material());
+  b.add_instance(kAt, obj, t);
+  b.add_instance(kAt, obj, luz::Matrix4::translate({0, 0, 5}));
+  b.add_instance(kAt, obj, luz::Matrix4::scale({1, 0, 1}));
+  b.frame_bounds(8, 8);
+  const luz::Scene s = b.finish();
+  EXPECT_EQ(s.num_triangles(), 2u + 2u);  // the world's quad and the flattened placement
+  EXPECT_EQ(s.flattened_instances, 1u);
+  ASSERT_EQ(s.objects.size(), 1u);
+  EXPECT_EQ(s.objects[0].first_triangle, 4u);
+  EXPECT_EQ(s.objects[0].num_triangles, 2u);
+  EXPECT_EQ(s.objects[0].first_vertex, 8u);
+  EXPECT_EQ(s.objects[0].num_vertices, 4u);
+  EXPECT_EQ(s.num_instanced_triangles(), 4u);
+  ASSERT_EQ(s.instances.size(), 2u);
+  // to_object inverts to_world; the bounds hold every placed vertex.
+  for (const luz::Instance& in : s.instances)
+    for (uint32_t v = 8; v < 12; ++v) {
+      const luz::Vec3 p = s.positions[v], w = in.to_world.point(p), back = in.to_object.point(w);
+      EXPECT_NEAR(back.x, p.x, 1e-5f);
+      EXPECT_NEAR(back.y, p.y, 1e-5f);
+      EXPECT_NEAR(back.z, p.z, 1e-5f);
+      EXPECT_GE(w.x, s.bounds_min.x);
+      EXPECT_LE(w.z, s.bounds_max.z);
+    }
+  EXPECT_EQ(s.instances[1].to_world.m[2][3], 5.f);
+  // Flattened, the instances become world triangles after the others.
+  luz::Scene f = s;
+  f.flatten_instances();
+  f.compile();
+  EXPECT_TRUE(f.objects.empty());
+  EXPECT_EQ(f.num_triangles(), 8u);
+  EXPECT_EQ(f.positions.size(), 16u);
+  EXPECT_EQ(f.positions[12].z, 5.f);
+  EXPECT_EQ(f.indices[3 * 6], 12u);
+}
+
+TEST(SceneBuilder, InstanceChecks) {
+  expect_refused([](SceneBuilder& b) { b.add_instance(kAt, 0, luz::Matrix4{}); }, "no such object");
+  expect_refused([](SceneBuilder& b) {
+    const uint32_t o = b.begin_object(kAt, "o");
+    b.add_instance(kAt, o, luz::Matrix4::translate({NAN, 0, 0}));
+  }, "not finite");
+  expect_refused([](SceneBuilder& b) {
+    const uint32_t o = b.begin_object(kAt, "o");
+    TriangleMesh m = quad();
+    m.indices[2] = 9;
+    b.add_object_mesh(kAt, o, m, b.default_material());
+  }, "out of range");
+  expect_refused([](SceneBuilder& b) {
+    const uint32_t o = b.begin_object(kAt, "o");
+    b.add_object_mesh(kAt, o, quad(), b.default_material());
+    b.add_instance(kAt, o, luz::Matrix4::translate({0, 0, 2e18f}));
+    b.add_instance(kAt, o, luz::Matrix4{});
+    b.frame_bounds(8, 8);
+  }, "beyond 1e18");
+  {
+    SceneBuilder e("scene.txt");
+    const uint32_t o = e.begin_object(kAt, "empty");
+    e.add_instance(kAt, o, luz::Matrix4{});
+    e.add_instance(kAt, o, luz::Matrix4{});
+    e.set_camera(kAt, luz::Camera{});
+    EXPECT_THROW(e.finish(), luz::InputError);  // "scene.txt: the scene has no shapes"
+  }
+  // An empty object placed twice beside a mesh: an instance with nothing in it.
+  SceneBuilder b("a");
+  const uint32_t o = b.begin_object(kAt, "empty");
+  b.add_instance(kAt, o, luz::Matrix4{});
+  b.add_instance(kAt, o, luz::Matrix4::translate({1, 0, 0}));
+  b.add_mesh(kAt, quad(), b.default_material());
+  b.frame_bounds(8, 8);
+  const luz::Scene s = b.finish();
+  EXPECT_EQ(s.instances.size(), 2u);
+  EXPECT_EQ(s.num_instanced_triangles(), 0u);
+  EXPECT_EQ(s.bounds_max.x, 1.f);  // the quad's alone
 }
 
 }  // namespace

@@ -357,8 +357,13 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
   if (o.device == "auto" && !use_cuda)
     std::fprintf(stderr, "luz: warning: --device auto: no usable GPU (%s); rendering on the CPU\n", no_gpu.c_str());
   if (!o.quiet)
-    std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles, %zu spheres, %zu light%s, loaded in %.2f s, on %s%s\n",
+    std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles%s, %zu spheres, %zu light%s, loaded in %.2f s, on %s%s\n",
                  o.scene.c_str(), scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(),
+                 scene.instances.empty()
+                     ? ""
+                     : (" + " + std::to_string(scene.num_instanced_triangles()) + " placed by " +
+                        std::to_string(scene.instances.size()) + " instances")
+                           .c_str(),
                  scene.spheres.size(), scene.lights.size(), scene.lights.size() == 1 ? "" : "s", load_seconds,
                  use_cuda ? luz::cuda_device_name().c_str() : "the CPU",
                  ckpt ? (", resuming at sample " + std::to_string(ckpt->next_sample)).c_str() : "");

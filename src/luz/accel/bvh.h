@@ -9,8 +9,18 @@
 // a contiguous range of `prims` (primitive references, reordered by the
 // builder so every leaf is one range).
 //
-// A primitive reference is a tagged 32-bit id: bit 31 set = sphere, clear =
-// triangle; the low 31 bits index Scene::spheres or the triangles.
+// A primitive reference is a tagged 32-bit id: bit 31 set = sphere, bit 30
+// set = instance, neither = triangle; the other bits index Scene::spheres,
+// the instances or the triangles.
+//
+// Instances (two levels): the scene's tree holds the world's triangles and
+// spheres beside one reference per instance, boxed by its object's bounds
+// mapped to world space; each object has its own tree over its triangles
+// (BvhInstancing: all objects' trees back to back). Traversal that meets an
+// instance leaves the rest of the leaf on the stack, maps the ray into
+// object space (t is the same in both: the direction is mapped, not
+// normalised) and descends the object's tree on the same stack; when the
+// stack is back at the depth it had there, it returns to the world's ray.
 //
 // Traversal: a fixed-size local stack, near child first, no recursion, no
 // virtual calls, no exceptions, no std containers. The ray-box test is the
@@ -37,11 +47,14 @@ namespace luz {
 // ---------------------------------------------------------------- layout
 
 inline constexpr uint32_t kBvhSphereBit = 0x80000000u;
+inline constexpr uint32_t kBvhInstanceBit = 0x40000000u;
 inline constexpr uint32_t kBvhLeafBit = 0x80000000u;
 inline constexpr uint32_t kBvhLeafCountBits = 4;  // leaf sizes 0..15
 inline constexpr uint32_t kBvhMaxLeafSize = (1u << kBvhLeafCountBits) - 1;
 inline constexpr uint32_t kBvhMaxPrims = 1u << (31 - kBvhLeafCountBits);  // 2^27 leaf-range starts
 inline constexpr int kBvhStackSize = 64;  // the builder keeps every tree shallower than this
+// Two levels: the world's tree's stack, a leaf's rest, then an object's.
+inline constexpr int kBvhTraversalStackSize = 2 * kBvhStackSize + 1;
 
 // A child reference: an inner node (bit 31 clear: the index) or a leaf (bit 31
 // set: first primitive in bits 4..30, count in bits 0..3).
@@ -193,8 +206,26 @@ struct BvhGeometry {
   OpacityView opacity;  // the alpha test (ANY HIT program of masked materials), or empty
 };
 
-// INTERSECTION program dispatch: one tagged primitive against the ray.
-LUZ_INLINE bool bvh_intersect_prim(const BvhGeometry& g, const BvhRay& r, uint32_t ref, float tmax, Hit& hit) {
+// One object's tree inside BvhInstancing's arrays: its nodes and
+// references (the object's triangles counted from first_triangle).
+struct BvhObjectTree {
+  uint32_t first_node = 0, num_nodes = 0;  // num_nodes 0: no triangles
+  uint32_t first_prim = 0, first_triangle = 0;
+};
+
+// The instances' side of a two-level tree (count 0: none).
+struct BvhInstancing {
+  const BvhNode* nodes = nullptr;   // every object's tree, back to back
+  const uint32_t* prims = nullptr;  // their references
+  const BvhObjectTree* objects = nullptr;
+  const Instance* instances = nullptr;  // the scene's: to_object, object
+  uint32_t count = 0;
+};
+
+// INTERSECTION program dispatch: one tagged primitive against the ray
+// (triangle refs counted from tri_base: an object's first triangle).
+LUZ_INLINE bool bvh_intersect_prim(const BvhGeometry& g, const BvhRay& r, uint32_t ref, float tmax, Hit& hit,
+                                   uint32_t tri_base = 0) {
   if (ref & kBvhSphereBit) {
     uint32_t k = ref & ~kBvhSphereBit;
     const Sphere& s = g.spheres[k];
@@ -206,12 +237,12 @@ LUZ_INLINE bool bvh_intersect_prim(const BvhGeometry& g, const BvhRay& r, uint32
     hit.u = hit.v = 0.f;
     return true;
   }
-  const uint32_t* ix = g.indices + 3 * size_t(ref);
+  const uint32_t* ix = g.indices + 3 * size_t(ref + tri_base);
   TriangleHit th;
   if (!intersect_triangle(r.o, r.d, g.positions[ix[0]], g.positions[ix[1]], g.positions[ix[2]], tmax, th))
     return false;
   hit.t = th.t;
-  hit.prim = ref;
+  hit.prim = ref + tri_base;
   hit.kind = PrimKind::Triangle;
   hit.u = th.b1;
   hit.v = th.b2;
@@ -222,14 +253,21 @@ LUZ_INLINE bool bvh_intersect_prim(const BvhGeometry& g, const BvhRay& r, uint32
 
 // Stack-based traversal shared by both queries. AnyHit: return at the first
 // primitive hit (ANY HIT terminating the ray); otherwise shrink tmax on every
-// hit and keep the closest (CLOSEST HIT).
+// hit and keep the closest (CLOSEST HIT). Instances: see the top of the file.
 template <bool AnyHit>
-LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const Ray& ray, Hit& hit) {
+LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const BvhInstancing& inst, const Ray& ray,
+                             Hit& hit) {
   if (bvh.num_nodes == 0) return false;
-  const BvhRay r = bvh_make_ray(ray);
+  const BvhRay world = bvh_make_ray(ray);
+  BvhRay r = world;
+  // The tree being traversed: the world's, or an instance's object's.
+  const BvhNode* nodes = bvh.nodes;
+  const uint32_t* prims = bvh.prims;
+  uint32_t tri_base = 0, in_instance = kNoInstance;
+  int instance_sp = -1;  // the stack depth at which the instance was entered
   float tmax = ray.tmax;
   bool found = false;
-  uint32_t stack[kBvhStackSize];
+  uint32_t stack[kBvhTraversalStackSize];
   int sp = 0;
   uint32_t cur = 0;  // the root is an inner node
   for (;;) {
@@ -238,14 +276,14 @@ LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const Ray
 #if defined(__CUDA_ARCH__)
       // The 64-byte node as four 16-byte loads through the read-only cache
       // (Aila & Laine's fetch), in the layout's order.
-      const float4* q = reinterpret_cast<const float4*>(bvh.nodes + cur);
+      const float4* q = reinterpret_cast<const float4*>(nodes + cur);
       const float4 xy0 = __ldg(q), xy1 = __ldg(q + 1), z01 = __ldg(q + 2);
       const uint2 ch = __ldg(reinterpret_cast<const uint2*>(q + 3));
       bool h0 = bvh_slab(r, xy0.x, xy0.y, xy0.z, xy0.w, z01.x, z01.y, tmax, t0);
       bool h1 = bvh_slab(r, xy1.x, xy1.y, xy1.z, xy1.w, z01.z, z01.w, tmax, t1);
       const uint32_t child0 = ch.x, child1 = ch.y;
 #else
-      const BvhNode& n = bvh.nodes[cur];
+      const BvhNode& n = nodes[cur];
       bool h0 = bvh_slab(r, n.c0_lx, n.c0_hx, n.c0_ly, n.c0_hy, n.c0_lz, n.c0_hz, tmax, t0);
       bool h1 = bvh_slab(r, n.c1_lx, n.c1_hx, n.c1_ly, n.c1_hy, n.c1_lz, n.c1_hz, tmax, t1);
       const uint32_t child0 = n.child[0], child1 = n.child[1];
@@ -267,16 +305,48 @@ LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const Ray
       }
     } else {
       uint32_t first = bvh_leaf_first(cur), count = bvh_leaf_count(cur);
+      bool entered = false;
       for (uint32_t i = 0; i < count; ++i) {
+        const uint32_t ref = prims[first + i];
+        if ((ref & (kBvhSphereBit | kBvhInstanceBit)) == kBvhInstanceBit) {
+          const uint32_t k = ref & ~kBvhInstanceBit;
+          const Instance& in = inst.instances[k];
+          const BvhObjectTree& o = inst.objects[in.object];
+          if (o.num_nodes == 0) continue;
+          // Into the object: the rest of this leaf waits on the stack.
+          if (i + 1 < count) stack[sp++] = bvh_make_leaf(first + i + 1, count - i - 1);
+          Ray local;
+          local.o = in.to_object.point(ray.o);
+          local.d = in.to_object.vector(ray.d);
+          r = bvh_make_ray(local);
+          nodes = inst.nodes + o.first_node;
+          prims = inst.prims + o.first_prim;
+          tri_base = o.first_triangle;
+          in_instance = k;
+          instance_sp = sp;
+          cur = 0;
+          entered = true;
+          break;
+        }
         Hit h;
-        if (bvh_intersect_prim(g, r, bvh.prims[first + i], tmax, h) &&
+        if (bvh_intersect_prim(g, r, ref, tmax, h, tri_base) &&
             (!g.opacity.materials || g.opacity.keeps(r.o, r.d, h))) {
+          h.inst = in_instance;
           hit = h;
           if (AnyHit) return true;
           tmax = h.t;
           found = true;
         }
       }
+      if (entered) continue;
+    }
+    if (sp == instance_sp) {  // the object is done: back to the world's tree and ray
+      r = world;
+      nodes = bvh.nodes;
+      prims = bvh.prims;
+      tri_base = 0;
+      in_instance = kNoInstance;
+      instance_sp = -1;
     }
     if (sp == 0) break;
     cur = stack[--sp];
@@ -285,14 +355,15 @@ LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const Ray
 }
 
 // CLOSEST HIT: the nearest primitive in (0, ray.tmax).
-LUZ_INLINE bool bvh_closest_hit(const BvhView& bvh, const BvhGeometry& g, const Ray& ray, Hit& hit) {
-  return bvh_traverse<false>(bvh, g, ray, hit);
+LUZ_INLINE bool bvh_closest_hit(const BvhView& bvh, const BvhGeometry& g, const BvhInstancing& inst, const Ray& ray,
+                                Hit& hit) {
+  return bvh_traverse<false>(bvh, g, inst, ray, hit);
 }
 
 // ANY HIT: is anything in (0, ray.tmax)? Stops at the first hit.
-LUZ_INLINE bool bvh_any_hit(const BvhView& bvh, const BvhGeometry& g, const Ray& ray) {
+LUZ_INLINE bool bvh_any_hit(const BvhView& bvh, const BvhGeometry& g, const BvhInstancing& inst, const Ray& ray) {
   Hit h;
-  return bvh_traverse<true>(bvh, g, ray, h);
+  return bvh_traverse<true>(bvh, g, inst, ray, h);
 }
 
 // The Tracer (integrator/path.h) over Luz's BVH: path_li<BvhTracer> runs on
@@ -300,9 +371,12 @@ LUZ_INLINE bool bvh_any_hit(const BvhView& bvh, const BvhGeometry& g, const Ray&
 struct BvhTracer {
   BvhView bvh;
   BvhGeometry geometry;
+  BvhInstancing instancing;
 
-  LUZ_INLINE bool intersect(const Ray& ray, Hit& hit) const { return bvh_closest_hit(bvh, geometry, ray, hit); }
-  LUZ_INLINE bool occluded(const Ray& ray) const { return bvh_any_hit(bvh, geometry, ray); }
+  LUZ_INLINE bool intersect(const Ray& ray, Hit& hit) const {
+    return bvh_closest_hit(bvh, geometry, instancing, ray, hit);
+  }
+  LUZ_INLINE bool occluded(const Ray& ray) const { return bvh_any_hit(bvh, geometry, instancing, ray); }
 };
 
 }  // namespace luz

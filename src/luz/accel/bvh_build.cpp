@@ -1794,6 +1794,56 @@ void compact(BvhNode* slots, size_t total, const uint64_t* mask, size_t words, B
 
 }  // namespace
 
+namespace {
+
+// Instance k's world box: its object's box mapped corner by corner, grown
+// by a few ulps of its magnitude so that rounding in the map never leaves a
+// placed vertex outside. An object without triangles: the point its origin
+// maps to (traversal never enters it).
+void instance_box(const InstancesView& v, uint32_t k, Vec3& lo, Vec3& hi) {
+  const Instance& in = v.list[k];
+  const SceneObject& o = v.objects[in.object];
+  if (o.num_triangles == 0) {
+    lo = hi = in.to_world.point({});
+    return;
+  }
+  lo = Vec3{kInfinity, kInfinity, kInfinity};
+  hi = -lo;
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 p = in.to_world.point({c & 1 ? o.hi.x : o.lo.x, c & 2 ? o.hi.y : o.lo.y, c & 4 ? o.hi.z : o.lo.z});
+    lo = vmin(lo, p);
+    hi = vmax(hi, p);
+  }
+  const float pad = max(max_abs(lo), max_abs(hi)) * 0x1p-20f;
+  lo = lo - Vec3{pad, pad, pad};
+  hi = hi + Vec3{pad, pad, pad};
+}
+
+// Each object's own tree, over its triangles alone, appended to
+// bvh.object_nodes / object_prims.
+void build_object_trees(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh, BvhScratch& work) {
+  const InstancesView& v = scene.instances;
+  Bvh one;
+  for (uint32_t k = 0; k < v.num_objects; ++k) {
+    const SceneObject& o = v.objects[k];
+    SceneView sub;
+    sub.positions = scene.positions;
+    sub.indices = scene.indices + 3 * size_t(o.first_triangle);
+    sub.num_triangles = o.num_triangles;
+    build_bvh(sub, options, one, work);
+    BvhObjectTree t;
+    t.first_node = uint32_t(bvh.object_nodes.size());
+    t.num_nodes = uint32_t(one.nodes.size());
+    t.first_prim = uint32_t(bvh.object_prims.size());
+    t.first_triangle = o.first_triangle;
+    bvh.objects.push_back(t);
+    bvh.object_nodes.insert(bvh.object_nodes.end(), one.nodes.begin(), one.nodes.end());
+    bvh.object_prims.insert(bvh.object_prims.end(), one.prims.begin(), one.prims.end());
+  }
+}
+
+}  // namespace
+
 BvhScratch::~BvhScratch() { build_deallocate(p_, bytes_, 64); }
 
 void* BvhScratch::get(size_t bytes) {
@@ -1830,15 +1880,19 @@ Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options) {
 
 void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh, BvhScratch& work) {
   auto t0 = std::chrono::steady_clock::now();
-  size_t nt = scene.num_triangles, ns = scene.num_spheres, n = nt + ns;
+  size_t nt = scene.num_triangles, ns = scene.num_spheres, ni = scene.instances.count, n = nt + ns + ni;
   bvh.nodes.clear();
   bvh.prims.clear();
+  bvh.object_nodes.clear();
+  bvh.object_prims.clear();
+  bvh.objects.clear();
   bvh.bounds_min = bvh.bounds_max = Vec3{};
   bvh.num_triangles = bvh.num_spheres = 0;
   bvh.num_leaves = bvh.max_depth = 0;
   bvh.build_seconds = 0;
   if (n >= kBvhMaxPrims) throw std::invalid_argument("build_bvh: too many primitives for the BVH's 27-bit leaf offsets");
   if (n == 0) return;
+  if (ni > 0) build_object_trees(scene, options, bvh, work);
   bvh.num_triangles = scene.num_triangles;
   bvh.num_spheres = scene.num_spheres;
 
@@ -1864,7 +1918,7 @@ void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh,
         acc.box.grow(lo, hi);
         acc.cbox.grow(lo + hi);
       }
-      for (; i < e; ++i) {
+      for (; i < std::min(e, nt + ns); ++i) {
         const Sphere& s = scene.spheres[i - nt];
         // A few ulps of slack for intersect_sphere's rounding near tangents.
         float m = max(fabsf(s.center.x), max(fabsf(s.center.y), fabsf(s.center.z))) + fabsf(s.radius);
@@ -1879,6 +1933,16 @@ void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh,
         uint32_t id = uint32_t(i - nt) | kBvhSphereBit;
         PrimRef& p = rp[i];
         p.lo = f4{lo.x + 0.f, lo.y + 0.f, lo.z + 0.f, std::bit_cast<float>(id)};  // + 0: as above
+        p.hi = f4{hi.x + 0.f, hi.y + 0.f, hi.z + 0.f, 0.f};
+        acc.box.grow(xyz(p.lo), p.hi);
+        acc.cbox.grow(centroid2(p));
+      }
+      for (; i < e; ++i) {
+        const uint32_t k = uint32_t(i - nt - ns);
+        Vec3 lo, hi;
+        instance_box(scene.instances, k, lo, hi);
+        PrimRef& p = rp[i];
+        p.lo = f4{lo.x + 0.f, lo.y + 0.f, lo.z + 0.f, std::bit_cast<float>(k | kBvhInstanceBit)};  // + 0: as above
         p.hi = f4{hi.x + 0.f, hi.y + 0.f, hi.z + 0.f, 0.f};
         acc.box.grow(xyz(p.lo), p.hi);
         acc.cbox.grow(centroid2(p));
@@ -1932,6 +1996,9 @@ void build_bvh(const SceneView& scene, const BvhBuildOptions& options, Bvh& bvh,
   } catch (...) {
     bvh.nodes.clear();
     bvh.prims.clear();
+    bvh.object_nodes.clear();
+    bvh.object_prims.clear();
+    bvh.objects.clear();
     bvh.num_triangles = bvh.num_spheres = 0;
     throw;
   }
@@ -1950,6 +2017,7 @@ BvhTracer make_bvh_tracer(const Bvh& bvh, const SceneView& scene) {
   t.geometry.indices = scene.indices;
   t.geometry.spheres = scene.spheres;
   t.geometry.opacity = scene.opacity();
+  t.instancing = bvh.instancing(scene.instances);
   return t;
 }
 

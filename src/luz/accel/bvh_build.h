@@ -75,6 +75,11 @@ struct Bvh {
   uint32_t num_triangles = 0, num_spheres = 0;
   uint32_t num_leaves = 0, max_depth = 0;  // max_depth: inner levels (root = 1)
   double build_seconds = 0;
+  // Instances (two levels, bvh.h): every object's tree, back to back; the
+  // tree above (nodes, prims) then references each instance.
+  std::vector<BvhNode, BuildAllocator<BvhNode>> object_nodes;
+  std::vector<uint32_t, BuildAllocator<uint32_t>> object_prims;
+  std::vector<BvhObjectTree> objects;
 
   BvhView view() const {
     BvhView v;
@@ -84,8 +89,22 @@ struct Bvh {
     v.num_prims = uint32_t(prims.size());
     return v;
   }
+  // The instances' side, with the scene's instances (host pointers).
+  BvhInstancing instancing(const InstancesView& scene) const {
+    BvhInstancing v;
+    if (objects.empty()) return v;
+    v.nodes = object_nodes.data();
+    v.prims = object_prims.data();
+    v.objects = objects.data();
+    v.instances = scene.list;
+    v.count = scene.count;
+    return v;
+  }
   // Bytes of the acceleration structure proper (nodes + references).
-  size_t bytes() const { return nodes.size() * sizeof(BvhNode) + prims.size() * sizeof(uint32_t); }
+  size_t bytes() const {
+    return (nodes.size() + object_nodes.size()) * sizeof(BvhNode) +
+           (prims.size() + object_prims.size()) * sizeof(uint32_t) + objects.size() * sizeof(BvhObjectTree);
+  }
 };
 
 // Working memory a build keeps for the next one (96 bytes of address space
@@ -110,7 +129,9 @@ class BvhScratch {
   size_t bytes_ = 0;
 };
 
-// Builds over scene.positions/indices/num_triangles and spheres/num_spheres.
+// Builds over scene.positions/indices/num_triangles and spheres/num_spheres,
+// and over scene.instances: one tree per object, and the instances in the
+// scene's tree.
 // Throws std::invalid_argument on more than kBvhMaxPrims primitives.
 Bvh build_bvh(const SceneView& scene, const BvhBuildOptions& options = {});
 

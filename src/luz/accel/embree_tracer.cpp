@@ -113,21 +113,14 @@ bool compact_pair(const Scene& scene, const uint32_t* a, const uint32_t* b) {
   return joint <= 1.5f * std::max(box_area(lo[0], hi[0]), box_area(lo[1], hi[1]));
 }
 
-}  // namespace
-
-EmbreeScene::EmbreeScene(const Scene& scene) {
-  device_ = rtcNewDevice(nullptr);
-  if (!device_) throw std::runtime_error("Embree: cannot create device");
-  scene_ = rtcNewScene(device_);
-  rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
-
-  size_t nv = scene.positions.size(), nt = scene.num_triangles();
-  // Every triangle goes into one Embree quad geometry (EmbreeQuad): pairs of
-  // consecutive triangles sharing an edge as quads, the others as degenerate ones.
-  std::vector<unsigned> quad_ix;
-  for (uint32_t k = 0; k < nt; ++k) {
+// Triangles [first, end) as EmbreeQuads appended to `quads`, with their
+// four vertex indices (less first_vertex) appended to `ix`.
+void make_quads(const Scene& scene, uint32_t first, uint32_t end, uint32_t first_vertex, std::vector<EmbreeQuad>& quads,
+                std::vector<unsigned>& ix) {
+  // Pairs of consecutive triangles sharing an edge as quads, the others as degenerate ones.
+  for (uint32_t k = first; k < end; ++k) {
     const uint32_t* a = &scene.indices[3 * size_t(k)];
-    if (k + 1 < nt) {
+    if (k + 1 < end) {
       const uint32_t* b = &scene.indices[3 * size_t(k) + 3];
       int ia = -1, jb = -1, shared = 0;
       for (int i = 0; i < 3; ++i) {
@@ -154,8 +147,8 @@ EmbreeScene::EmbreeScene(const Scene& scene) {
             for (uint8_t s = 0; s < 4; ++s)
               if (quad[s] == t[j + 1]) q.slot[h][j] = s;
         }
-        quads_.push_back(q);
-        quad_ix.insert(quad_ix.end(), quad, quad + 4);
+        quads.push_back(q);
+        for (uint32_t v : quad) ix.push_back(v - first_vertex);
         ++k;
         continue;
       }
@@ -167,33 +160,64 @@ EmbreeScene::EmbreeScene(const Scene& scene) {
     q.slot[0][0] = 1;
     q.slot[0][1] = 3;
     q.slot[1][0] = q.slot[1][1] = EmbreeQuad::kLone;
-    quads_.push_back(q);
+    quads.push_back(q);
     const uint32_t quad[4] = {a[0], a[1], a[2], a[2]};
-    quad_ix.insert(quad_ix.end(), quad, quad + 4);
+    for (uint32_t v : quad) ix.push_back(v - first_vertex);
+  }
+}
+
+// A quad geometry over vertices [first_vertex, first_vertex + nv) of the
+// scene, with the alpha test when `alpha` is given.
+RTCGeometry quad_geometry(RTCDevice device, const Scene& scene, uint32_t first_vertex, size_t nv,
+                          const std::vector<unsigned>& ix, EmbreeAlpha* alpha) {
+  RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_QUAD);
+  // Embree reads vertices with 16-byte loads: its own buffers are padded.
+  auto* v = static_cast<float*>(
+      rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
+  std::memcpy(v, scene.positions.data() + first_vertex, nv * 3 * sizeof(float));
+  auto* q = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4,
+                                                           4 * sizeof(unsigned), ix.size() / 4));
+  std::memcpy(q, ix.data(), ix.size() * sizeof(unsigned));
+  if (alpha) {
+    rtcSetGeometryUserData(g, alpha);
+    rtcSetGeometryIntersectFilterFunction(g, quad_alpha_filter);
+    rtcSetGeometryOccludedFilterFunction(g, quad_alpha_filter);
+  }
+  rtcCommitGeometry(g);
+  return g;
+}
+
+}  // namespace
+
+// Without instances, one scene; with them, the world's quads and spheres
+// beside one instance geometry per instance (geometry ID kFirstInstanceGeom
+// + its index), each over its object's own scene, built once.
+EmbreeScene::EmbreeScene(const Scene& scene) {
+  device_ = rtcNewDevice(nullptr);
+  if (!device_) throw std::runtime_error("Embree: cannot create device");
+  scene_ = rtcNewScene(device_);
+  rtcSetSceneBuildQuality(scene_, RTC_BUILD_QUALITY_HIGH);
+
+  const uint32_t nt = scene.num_triangles();
+  const size_t nv = scene.objects.empty() ? scene.positions.size() : scene.objects.front().first_vertex;
+  std::vector<unsigned> quad_ix;
+  make_quads(scene, 0, nt, 0, quads_, quad_ix);
+  std::vector<std::vector<unsigned>> object_ix(scene.objects.size());
+  std::vector<uint32_t> object_quads(scene.objects.size());
+  for (size_t k = 0; k < scene.objects.size(); ++k) {
+    const SceneObject& o = scene.objects[k];
+    object_quads[k] = uint32_t(quads_.size());
+    make_quads(scene, o.first_triangle, o.first_triangle + o.num_triangles, o.first_vertex, quads_, object_ix[k]);
   }
   // Only a scene with masked materials runs the alpha test (and pays for it).
   alpha_.opacity = scene.view().opacity();
   alpha_.quads = quads_.data();
   const bool masked = alpha_.opacity.materials != nullptr;
   if (!quad_ix.empty()) {
-    RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_QUAD);
-    // Embree reads vertices with 16-byte loads: its own buffers are padded.
-    auto* v = static_cast<float*>(
-        rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float), nv));
-    std::memcpy(v, scene.positions.data(), nv * 3 * sizeof(float));
-    auto* ix = static_cast<unsigned*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT4,
-                                                              4 * sizeof(unsigned), quads_.size()));
-    std::memcpy(ix, quad_ix.data(), quad_ix.size() * sizeof(unsigned));
-    if (masked) {
-      rtcSetGeometryUserData(g, &alpha_);
-      rtcSetGeometryIntersectFilterFunction(g, quad_alpha_filter);
-      rtcSetGeometryOccludedFilterFunction(g, quad_alpha_filter);
-    }
-    rtcCommitGeometry(g);
+    RTCGeometry g = quad_geometry(device_, scene, 0, nv, quad_ix, masked ? &alpha_ : nullptr);
     rtcAttachGeometryByID(scene_, g, EmbreeTracer::kQuadGeom);
     rtcReleaseGeometry(g);
   }
-
   if (!scene.spheres.empty()) {
     RTCGeometry sph = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_USER);
     rtcSetGeometryUserPrimitiveCount(sph, unsigned(scene.spheres.size()));
@@ -212,14 +236,43 @@ EmbreeScene::EmbreeScene(const Scene& scene) {
     rtcAttachGeometryByID(scene_, sph, EmbreeTracer::kSphereGeom);
     rtcReleaseGeometry(sph);
   }
+
+  object_alpha_.resize(scene.objects.size(), alpha_);
+  object_scenes_.resize(scene.objects.size(), nullptr);
+  for (size_t k = 0; k < scene.objects.size(); ++k) {
+    if (object_ix[k].empty()) continue;
+    const SceneObject& o = scene.objects[k];
+    object_alpha_[k].quads = quads_.data() + object_quads[k];
+    object_scenes_[k] = rtcNewScene(device_);
+    rtcSetSceneBuildQuality(object_scenes_[k], RTC_BUILD_QUALITY_HIGH);
+    RTCGeometry g =
+        quad_geometry(device_, scene, o.first_vertex, o.num_vertices, object_ix[k], masked ? &object_alpha_[k] : nullptr);
+    rtcAttachGeometryByID(object_scenes_[k], g, EmbreeTracer::kQuadGeom);
+    rtcReleaseGeometry(g);
+    rtcCommitScene(object_scenes_[k]);
+  }
+  instance_quads_.resize(scene.instances.size());
+  for (size_t k = 0; k < scene.instances.size(); ++k) {
+    const Instance& in = scene.instances[k];
+    instance_quads_[k] = object_quads[in.object];
+    if (!object_scenes_[in.object]) continue;
+    RTCGeometry g = rtcNewGeometry(device_, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(g, object_scenes_[in.object]);
+    rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, &in.to_world.m[0][0]);
+    rtcCommitGeometry(g);
+    rtcAttachGeometryByID(scene_, g, EmbreeTracer::kFirstInstanceGeom + unsigned(k));
+    rtcReleaseGeometry(g);
+  }
   rtcCommitScene(scene_);
   if (rtcGetDeviceError(device_) != RTC_ERROR_NONE) throw std::runtime_error("Embree: scene build failed");
 }
 
-EmbreeTracer EmbreeScene::tracer() const { return EmbreeTracer{scene_, quads_.data()}; }
+EmbreeTracer EmbreeScene::tracer() const { return EmbreeTracer{scene_, quads_.data(), instance_quads_.data()}; }
 
 EmbreeScene::~EmbreeScene() {
   if (scene_) rtcReleaseScene(scene_);
+  for (RTCScene o : object_scenes_)
+    if (o) rtcReleaseScene(o);
   if (device_) rtcReleaseDevice(device_);
 }
 

@@ -2,7 +2,8 @@
 // sharing an edge as one quad, see EmbreeQuad), analytic spheres as user
 // geometry running Luz's own intersect_sphere(); in a scene with masked
 // materials, the alpha test as the quads' filter function and inside the
-// spheres' functions.
+// spheres' functions. Instances as Embree instances of one scene per
+// object; a scene without instances stays one flat Embree scene.
 #pragma once
 
 #include <cmath>
@@ -49,15 +50,19 @@ class EmbreeScene {
  private:
   RTCDevice device_ = nullptr;
   RTCScene scene_ = nullptr;
-  std::vector<EmbreeQuad> quads_;  // Embree quad primID -> triangles
+  std::vector<EmbreeQuad> quads_;  // Embree quad primID -> triangles: the world's, then each object's
+  std::vector<uint32_t> instance_quads_;  // per instance, its object's first quad in quads_
   EmbreeAlpha alpha_;
+  std::vector<EmbreeAlpha> object_alpha_;
+  std::vector<RTCScene> object_scenes_;  // null for an object without triangles
 };
 
 // The Tracer the integrator is instantiated with on the CPU.
 struct EmbreeTracer {
-  static constexpr unsigned kQuadGeom = 0, kSphereGeom = 1;
+  static constexpr unsigned kQuadGeom = 0, kSphereGeom = 1, kFirstInstanceGeom = 2;
   RTCScene scene;
   const EmbreeQuad* quads = nullptr;
+  const uint32_t* instance_quads = nullptr;  // EmbreeScene::instance_quads_
 
   // Embree's hit on a quad (u, v in the quad's parametrisation) as a hit on
   // one of its two triangles with that triangle's barycentrics.
@@ -113,9 +118,15 @@ struct EmbreeTracer {
     rtcIntersect1(scene, &ctx, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     hit.t = rh.ray.tfar;
+    hit.inst = kNoInstance;
     if (rh.hit.geomID == kQuadGeom) {
       hit.kind = PrimKind::Triangle;
-      quad_hit(quads[rh.hit.primID], rh.hit.u, rh.hit.v, hit);
+      uint32_t quad = rh.hit.primID;
+      if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {
+        hit.inst = rh.hit.instID[0] - kFirstInstanceGeom;
+        quad += instance_quads[hit.inst];
+      }
+      quad_hit(quads[quad], rh.hit.u, rh.hit.v, hit);
       return true;
     }
     hit.kind = PrimKind::Sphere;

@@ -2,6 +2,7 @@
 // interaction, and robust ray offsets.
 #pragma once
 
+#include "luz/geometry/instance.h"
 #include "luz/math/vec.h"
 
 namespace luz {
@@ -22,6 +23,7 @@ struct Hit {
   uint32_t prim = 0;
   PrimKind kind = PrimKind::Triangle;
   float u = 0.f, v = 0.f;  // barycentrics of vertices 1 and 2 (triangles)
+  uint32_t inst = kNoInstance;  // the instance hit, or kNoInstance: world geometry
 };
 
 struct Interaction {

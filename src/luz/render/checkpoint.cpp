@@ -215,6 +215,8 @@ RenderFields render_fields(const Scene& scene, RenderDevice device) {
   geometry.array(scene.tri_material);
   geometry.array(scene.tri_emitter);
   geometry.values(scene.spheres);
+  geometry.values(scene.objects);
+  geometry.values(scene.instances);
   f.emplace_back("geometry", geometry.hex());
   Hasher materials;
   materials.live(scene.materials, [](void* at, const Material& m) {

@@ -12,6 +12,7 @@ void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm,
                      int32_t emission_texture) {
   uint32_t base = uint32_t(positions.size());
   if (!uv.empty() && uv.size() != pos.size()) throw std::invalid_argument("add_mesh: one texture coordinate per position");
+  if (!objects.empty() && emission) throw std::invalid_argument("add_mesh: an object's triangles cannot emit");
   if (emission_texture >= 0 && (!emission || uv.empty()))
     throw std::invalid_argument("add_mesh: a textured emitter needs its radiance and texture coordinates");
   // Texture coordinates as normals: for all vertices or none; meshes without
@@ -51,6 +52,73 @@ void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm,
       tri_emitter.push_back(-1);
     }
   }
+  if (!objects.empty()) {
+    SceneObject& o = objects.back();
+    o.num_vertices = uint32_t(positions.size()) - o.first_vertex;
+    o.num_triangles = uint32_t(tri_material.size()) - o.first_triangle;
+  }
+}
+
+uint32_t Scene::add_object() {
+  SceneObject o;
+  o.first_triangle = uint32_t(tri_material.size());
+  o.first_vertex = uint32_t(positions.size());
+  objects.push_back(o);
+  return uint32_t(objects.size() - 1);
+}
+
+uint32_t Scene::add_instance(uint32_t object, const Affine3& to_world, const Affine3& to_object) {
+  if (object >= objects.size()) throw std::invalid_argument("add_instance: no such object");
+  if (instances.size() >= size_t(INT32_MAX)) throw std::length_error("more than 2^31 - 1 instances");
+  Instance in;
+  in.to_world = to_world;
+  in.to_object = to_object;
+  in.object = object;
+  instances.push_back(in);
+  return uint32_t(instances.size() - 1);
+}
+
+uint64_t Scene::num_instanced_triangles() const {
+  uint64_t n = 0;
+  for (const Instance& in : instances) n += objects[in.object].num_triangles;
+  return n;
+}
+
+void Scene::flatten_instances() {
+  const uint32_t nt = num_triangles();
+  const size_t nv = objects.empty() ? positions.size() : objects.front().first_vertex;
+  std::vector<Vec3> pos(positions.begin(), positions.begin() + std::ptrdiff_t(nv)), nrm;
+  std::vector<Vec2> uv;
+  if (!normals.empty()) nrm.assign(normals.begin(), normals.begin() + std::ptrdiff_t(nv));
+  if (!uvs.empty()) uv.assign(uvs.begin(), uvs.begin() + std::ptrdiff_t(nv));
+  std::vector<uint32_t> idx(indices.begin(), indices.begin() + 3 * std::ptrdiff_t(nt));
+  std::vector<uint32_t> mat(tri_material.begin(), tri_material.begin() + std::ptrdiff_t(nt));
+  std::vector<int32_t> emit(tri_emitter.begin(), tri_emitter.begin() + std::ptrdiff_t(nt));
+  for (const Instance& in : instances) {
+    const SceneObject& o = objects[in.object];
+    if (pos.size() + o.num_vertices >= size_t(UINT32_MAX) || mat.size() + o.num_triangles >= size_t(UINT32_MAX))
+      throw std::length_error("flattened, the scene would have more than 2^32 - 1 vertices or triangles");
+    const uint32_t base = uint32_t(pos.size());
+    for (uint32_t k = o.first_vertex; k < o.first_vertex + o.num_vertices; ++k) {
+      pos.push_back(in.to_world.point(positions[k]));
+      if (!normals.empty()) nrm.push_back(in.normal(normals[k]));
+      if (!uvs.empty()) uv.push_back(uvs[k]);
+    }
+    for (uint32_t t = o.first_triangle; t < o.first_triangle + o.num_triangles; ++t) {
+      for (int j = 0; j < 3; ++j) idx.push_back(indices[3 * size_t(t) + size_t(j)] - o.first_vertex + base);
+      mat.push_back(tri_material[t]);
+      emit.push_back(-1);
+    }
+  }
+  positions = std::move(pos);
+  normals = std::move(nrm);
+  uvs = std::move(uv);
+  indices = std::move(idx);
+  tri_material = std::move(mat);
+  tri_emitter = std::move(emit);
+  flattened_instances += instances.size();
+  objects.clear();
+  instances.clear();
 }
 
 void Scene::add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip) {
@@ -230,6 +298,24 @@ void Scene::compile() {
     lo = vmin(lo, s.center - r);
     hi = vmax(hi, s.center + r);
   }
+  // An instance's bounds: its object's box mapped, corner by corner.
+  for (SceneObject& o : objects) {
+    o.lo = Vec3{kInfinity, kInfinity, kInfinity};
+    o.hi = -o.lo;
+    for (uint32_t k = o.first_vertex; k < o.first_vertex + o.num_vertices; ++k) {
+      o.lo = vmin(o.lo, positions[k]);
+      o.hi = vmax(o.hi, positions[k]);
+    }
+  }
+  for (const Instance& in : instances) {
+    const SceneObject& o = objects[in.object];
+    if (o.num_triangles == 0) continue;
+    for (int c = 0; c < 8; ++c) {
+      const Vec3 p = in.to_world.point({c & 1 ? o.hi.x : o.lo.x, c & 2 ? o.hi.y : o.lo.y, c & 4 ? o.hi.z : o.lo.z});
+      lo = vmin(lo, p);
+      hi = vmax(hi, p);
+    }
+  }
   if (!(lo.x <= hi.x)) lo = hi = Vec3{};
   bounds_min = lo;
   bounds_max = hi;
@@ -332,6 +418,10 @@ SceneView Scene::view() const {
   v.num_triangles = num_triangles();
   v.spheres = spheres.data();
   v.num_spheres = uint32_t(spheres.size());
+  v.instances.list = instances.data();
+  v.instances.count = uint32_t(instances.size());
+  v.instances.objects = objects.data();
+  v.instances.num_objects = uint32_t(objects.size());
   v.materials.list = materials.data();
   v.materials.bindings = texture_bindings.data();
   v.materials.count = uint32_t(materials.size());

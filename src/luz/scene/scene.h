@@ -54,7 +54,13 @@ struct Scene {
   Camera camera;
   FovAxis fov_axis = FovAxis::X;  // what set_resolution keeps
   RenderSettings settings;
-  size_t instances = 0;  // placed by the loader (flattened into the arrays above)
+  // Instancing (geometry/instance.h): the objects' triangles follow the
+  // world's in the arrays above, in object space, and are placed by
+  // `instances`; num_triangles() counts the world's. flattened_instances:
+  // placements the loader flattened into the world's triangles instead.
+  std::vector<SceneObject> objects;
+  std::vector<Instance> instances;
+  size_t flattened_instances = 0;
   // One-line warnings of the loader ("file:line: warning: ..."), for the CLI to print.
   std::vector<std::string> warnings;
 
@@ -70,16 +76,31 @@ struct Scene {
   int32_t environment = -1;
   Vec3 bounds_min{}, bounds_max{};
 
-  uint32_t num_triangles() const { return uint32_t(tri_material.size()); }
+  // The world's triangles (the objects' stored after them are not counted).
+  uint32_t num_triangles() const {
+    return objects.empty() ? uint32_t(tri_material.size()) : objects.front().first_triangle;
+  }
+  // Triangles the instances place (each object's count once per instance).
+  uint64_t num_instanced_triangles() const;
 
   // Appends a triangle mesh (positions already in world space). normals may be
   // empty, and so may uv (texture coordinates). With `emission`, every
   // triangle is an area light of that radiance, or, with emission_texture
-  // >= 0 (and uv), of that texture's (emission holding its mean).
+  // >= 0 (and uv), of that texture's (emission holding its mean). Once an
+  // object is begun, meshes (without emission) go into the last object.
   void add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
                 uint32_t material, const Color* emission, const std::vector<Vec2>& uv = {},
                 int32_t emission_texture = -1);
   void add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip);
+  // A new object, empty; the meshes added next (add_mesh, in object space)
+  // are its. Returns its index.
+  uint32_t add_object();
+  // Places an object; to_object must be to_world's inverse.
+  uint32_t add_instance(uint32_t object, const Affine3& to_world, const Affine3& to_object);
+  // Every instance becomes world triangles (vertices by Affine3::point,
+  // normals by Instance::normal: what an instanced hit computes), and the
+  // objects are dropped. Call compile() after.
+  void flatten_instances();
   // A material: the BSDF with its constant parameters, and the textures
   // driving the others, and its opacity (Material::opacity). Returns its index.
   uint32_t add_material(const Bsdf& b, const std::vector<TextureBinding>& bindings = {}, float opacity = 1.f,

@@ -22,8 +22,9 @@ void SceneBuilder::error(const SourceLoc& at, const std::string& problem) const 
 void SceneBuilder::warn(const SourceLoc& at, const std::string& problem) {
   const std::string& f = at.file.empty() ? file_ : at.file;
   std::string w = InputError::one_line(f);
-  if (at.line > 0) w += ":" + std::to_string(at.line);
-  scene_.warnings.push_back(w + ": warning: " + InputError::one_line(problem));
+  if (at.line > 0) (w += ':') += std::to_string(at.line);
+  (w += ": warning: ") += InputError::one_line(problem);
+  scene_.warnings.push_back(std::move(w));
 }
 
 // ---- textures ----
@@ -295,8 +296,8 @@ void SceneBuilder::check_shape_material(const SourceLoc& at, uint32_t material, 
   if (emission && m.masked()) error(at, "a masked material on an emitting shape is not supported");
 }
 
-void SceneBuilder::add_mesh(const SourceLoc& at, TriangleMesh mesh, uint32_t material, const AreaEmission* emission,
-                            bool flip_normals) {
+void SceneBuilder::check_mesh(const SourceLoc& at, TriangleMesh& mesh, uint32_t material,
+                              const AreaEmission* emission) {
   const size_t nv = mesh.positions.size();
   if (mesh.indices.size() % 3 != 0) error(at, "the mesh's index count is not a multiple of 3");
   if (!mesh.normals.empty() && mesh.normals.size() != nv) error(at, "the mesh has normals for some vertices only");
@@ -321,10 +322,20 @@ void SceneBuilder::add_mesh(const SourceLoc& at, TriangleMesh mesh, uint32_t mat
     if (mesh.indices[k] >= nv)
       error(at, "index " + std::to_string(mesh.indices[k]) + " (triangle " + std::to_string(k / 3) + ") is out of range (" +
                     std::to_string(nv) + " vertices)");
+}
+
+void SceneBuilder::check_room(const SourceLoc& at, const TriangleMesh& mesh) const {
   // The scene's arrays are indexed by 32 bits (and Embree's primitive IDs).
-  if (scene_.positions.size() + nv >= size_t(UINT32_MAX) ||
+  if (scene_.positions.size() + mesh.positions.size() >= size_t(UINT32_MAX) ||
       scene_.tri_material.size() + mesh.indices.size() / 3 >= size_t(UINT32_MAX))
     error(at, "the scene would have more than 2^32 - 1 vertices or triangles");
+}
+
+void SceneBuilder::add_mesh(const SourceLoc& at, TriangleMesh mesh, uint32_t material, const AreaEmission* emission,
+                            bool flip_normals) {
+  if (!scene_.objects.empty()) throw std::logic_error("SceneBuilder: a mesh added after the instances were resolved");
+  check_mesh(at, mesh, material, emission);
+  check_room(at, mesh);
   if (emission && scene_.lights.size() + mesh.indices.size() / 3 >= size_t(INT32_MAX))
     error(at, "the scene would have more than 2^31 - 1 lights");
   if (flip_normals) {
@@ -349,32 +360,125 @@ void SceneBuilder::add_sphere(const SourceLoc& at, Vec3 center, float radius, ui
 
 uint32_t SceneBuilder::begin_object(const SourceLoc& at, const std::string& name) {
   if (objects_.size() >= size_t(INT32_MAX)) error(at, "more than 2^31 - 1 objects");
-  objects_.push_back({name, {}, {}});
+  objects_.push_back({name, {}, {}, {}, 0});
   return uint32_t(objects_.size() - 1);
 }
 
 void SceneBuilder::add_object_mesh(const SourceLoc& at, uint32_t object, TriangleMesh mesh, uint32_t material) {
   if (object >= objects_.size()) error(at, "no such object");
-  objects_[object].meshes.push_back(std::move(mesh));
-  objects_[object].materials.push_back(material);
+  check_mesh(at, mesh, material, nullptr);
+  Object& o = objects_[object];
+  o.meshes.push_back(std::move(mesh));
+  o.materials.push_back(material);
+  o.at.push_back(at);
 }
 
-// Instances are flattened: each places a transformed copy of its object's
-// meshes. (Normals by the inverse transpose; the winding is kept, so a
-// mirroring transform flips the geometric normal, as in Mitsuba and pbrt.)
 void SceneBuilder::add_instance(const SourceLoc& at, uint32_t object, const Matrix4& to_world) {
   if (object >= objects_.size()) error(at, "no such object");
   for (int r = 0; r < 4; ++r)
     for (int c = 0; c < 4; ++c)
       if (!std::isfinite(to_world.m[r][c])) error(at, "the instance's transform is not finite");
-  const Object& o = objects_[object];
-  for (size_t k = 0; k < o.meshes.size(); ++k) {
-    TriangleMesh m = o.meshes[k];
-    for (Vec3& p : m.positions) p = to_world.point(p);
-    for (Vec3& n : m.normals) n = to_world.normal(n);
-    add_mesh(at, std::move(m), o.materials[k]);
-  }
+  placements_.push_back({at, object, to_world});
+  ++objects_[object].placements;
   ++num_instances_;
+}
+
+namespace {
+
+Affine3 to_affine(const Matrix4& m) {
+  Affine3 a;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) a.m[r][c] = float(m.m[r][c]);
+  return a;
+}
+
+// The inverse of an affine map (by cofactors, in double), false when it is
+// singular or its inverse does not fit in floats.
+bool invert_affine(const Matrix4& m, Affine3& inv) {
+  const double det = m.det3();
+  if (!(det != 0.0)) return false;
+  double l[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+      l[i][j] = (m.m[i1][j1] * m.m[i2][j2] - m.m[i1][j2] * m.m[i2][j1]) / det;  // adjugate / det
+    }
+  for (int i = 0; i < 3; ++i) {
+    double t = 0;
+    for (int j = 0; j < 3; ++j) {
+      inv.m[i][j] = float(l[i][j]);
+      t -= l[i][j] * m.m[j][3];
+    }
+    inv.m[i][3] = float(t);
+    for (int j = 0; j < 4; ++j)
+      if (!std::isfinite(inv.m[i][j])) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+// An object placed at least twice is stored once (in object space) and
+// instanced; one placed once is flattened (an instance would save nothing),
+// and so is a placement by a singular map (no inverse to trace through).
+// Objects never emit (begin_object's contract), so lights stay world
+// triangles. Flattened meshes keep the winding, normals by the inverse
+// transpose: a mirroring map turns the geometric normal, as an instance's.
+void SceneBuilder::resolve_instances() {
+  std::vector<Affine3> inverse(placements_.size());
+  std::vector<uint8_t> flatten(placements_.size());
+  std::vector<uint32_t> instanced(objects_.size());  // placements kept as instances, per object
+  for (size_t k = 0; k < placements_.size(); ++k) {
+    const Placement& p = placements_[k];
+    flatten[k] = objects_[p.object].placements < 2 || !invert_affine(p.to_world, inverse[k]);
+    instanced[p.object] += !flatten[k];
+  }
+  for (size_t k = 0; k < placements_.size(); ++k) {
+    if (!flatten[k]) continue;
+    const Placement& p = placements_[k];
+    const Object& o = objects_[p.object];
+    for (size_t j = 0; j < o.meshes.size(); ++j) {
+      TriangleMesh m = o.meshes[j];
+      for (Vec3& v : m.positions) v = p.to_world.point(v);
+      for (Vec3& n : m.normals)
+        if (!is_black(n)) n = p.to_world.normal(n);  // zero: a vertex shaded flat (check_mesh)
+      add_mesh(p.at, std::move(m), o.materials[j]);
+    }
+    ++scene_.flattened_instances;
+  }
+  std::vector<uint32_t> scene_object(objects_.size(), UINT32_MAX);
+  const Vec3 inf{kInfinity, kInfinity, kInfinity};
+  std::vector<Vec3> lo(objects_.size(), inf), hi(objects_.size(), -inf);  // each instanced object's bounds
+  for (size_t k = 0; k < objects_.size(); ++k) {
+    if (instanced[k] == 0) continue;
+    const Object& o = objects_[k];
+    scene_object[k] = scene_.add_object();
+    for (size_t j = 0; j < o.meshes.size(); ++j) {
+      const TriangleMesh& m = o.meshes[j];
+      check_room(o.at[j], m);
+      scene_.add_mesh(m.positions, m.normals, m.indices, o.materials[j], nullptr, m.uvs);
+      for (const Vec3& v : m.positions) lo[k] = vmin(lo[k], v), hi[k] = vmax(hi[k], v);
+    }
+  }
+  for (size_t k = 0; k < placements_.size(); ++k) {
+    if (flatten[k]) continue;
+    const Placement& p = placements_[k];
+    const SceneObject& o = scene_.objects[scene_object[p.object]];
+    const Affine3 to_world = to_affine(p.to_world);
+    // Every placed vertex within the range the flattened ones are held to:
+    // the object's box, mapped corner by corner, encloses them.
+    const Vec3 l = lo[p.object], h = hi[p.object];
+    for (int c = 0; c < 8 && o.num_vertices > 0; ++c) {
+      const Vec3 q = to_world.point({c & 1 ? h.x : l.x, c & 2 ? h.y : l.y, c & 4 ? h.z : l.z});
+      if (!is_finite(q) || max_abs(q) > kMaxCoordinate) error(p.at, "the instance places vertices beyond 1e18");
+    }
+    try {
+      scene_.add_instance(scene_object[p.object], to_world, inverse[k]);
+    } catch (const std::length_error& e) {
+      error(p.at, e.what());
+    }
+  }
+  placements_.clear();
 }
 
 // ---- lights ----
@@ -429,6 +533,7 @@ void SceneBuilder::set_camera(const SourceLoc& at, const Camera& cam, FovAxis ax
 }
 
 void SceneBuilder::frame_bounds(int width, int height) {
+  resolve_instances();  // (only finish() may follow)
   scene_.compile();
   const Vec3 c = (scene_.bounds_min + scene_.bounds_max) * 0.5f;
   const Vec3 ext = scene_.bounds_max - scene_.bounds_min;
@@ -448,9 +553,10 @@ void SceneBuilder::frame_bounds(int width, int height) {
 }
 
 Scene SceneBuilder::finish() {
-  if (scene_.num_triangles() == 0 && scene_.spheres.empty()) error({}, "the scene has no shapes");
+  resolve_instances();
+  if (scene_.num_triangles() == 0 && scene_.spheres.empty() && scene_.num_instanced_triangles() == 0)
+    error({}, "the scene has no shapes");
   if (!has_camera_) error({}, "the scene has no camera");
-  scene_.instances = num_instances_;
   images_ahead_.clear();
   scene_.compile();
   return std::move(scene_);

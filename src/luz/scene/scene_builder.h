@@ -120,6 +120,8 @@ class SceneBuilder {
   // ---- instancing ----
   // An object: meshes stored once (in object space), placed by instances.
   // Emitters inside objects are refused (as in pbrt-v4 and Mitsuba 3).
+  // Placements are resolved by frame_bounds() or finish(): an object placed
+  // twice or more is instanced, others are flattened (resolve_instances).
   uint32_t begin_object(const SourceLoc& at, const std::string& name);
   void add_object_mesh(const SourceLoc& at, uint32_t object, TriangleMesh mesh, uint32_t material);
   void add_instance(const SourceLoc& at, uint32_t object, const Matrix4& to_world);
@@ -146,6 +148,11 @@ class SceneBuilder {
 
  private:
   void check_emission(const SourceLoc& at, const AreaEmission& e) const;
+  // add_mesh's checks of a mesh (a normal that is not finite becomes zero,
+  // with a warning), and of the room left in the scene's arrays.
+  void check_mesh(const SourceLoc& at, TriangleMesh& mesh, uint32_t material, const AreaEmission* emission);
+  void check_room(const SourceLoc& at, const TriangleMesh& mesh) const;
+  void resolve_instances();
   void check_shape_material(const SourceLoc& at, uint32_t material, const AreaEmission* emission,
                             bool has_uvs, const char* what) const;
   int32_t push_texture_stats(int32_t index, const std::optional<TextureStats>& stats);
@@ -164,6 +171,13 @@ class SceneBuilder {
     std::string name;
     std::vector<TriangleMesh> meshes;
     std::vector<uint32_t> materials;
+    std::vector<SourceLoc> at;  // per mesh
+    size_t placements = 0;
+  };
+  struct Placement {
+    SourceLoc at;
+    uint32_t object;
+    Matrix4 to_world;
   };
 
   std::string file_;
@@ -173,6 +187,7 @@ class SceneBuilder {
   std::map<std::string, int32_t> image_files_;  // path -> its first texture
   ReadAhead<ImageFile> images_ahead_;
   std::vector<Object> objects_;
+  std::vector<Placement> placements_;  // until resolve_instances()
   size_t num_instances_ = 0;
   int32_t default_material_ = -1;
   bool has_camera_ = false;

@@ -69,7 +69,15 @@ std::string describe_scene(const Scene& s) {
   std::string out;
   auto line = [&](const std::string& key, const std::string& value) { out += key + ": " + value + "\n"; };
   line("shapes", std::to_string(s.num_triangles()) + " triangles, " + std::to_string(s.spheres.size()) + " spheres, " +
-                     std::to_string(s.instances) + " instances");
+                     std::to_string(s.instances.size() + s.flattened_instances) + " instances");
+  if (!s.objects.empty() || s.flattened_instances > 0) {
+    uint64_t stored = 0;
+    for (const SceneObject& o : s.objects) stored += o.num_triangles;
+    line("instancing", std::to_string(s.objects.size()) + " objects (" + std::to_string(stored) + " triangles) placed by " +
+                           std::to_string(s.instances.size()) + " instances (" +
+                           std::to_string(s.num_instanced_triangles()) + " triangles placed); " +
+                           std::to_string(s.flattened_instances) + " placements flattened");
+  }
   line("bounds", fmt("(%g, %g, %g)", s.bounds_min.x, s.bounds_min.y, s.bounds_min.z) + " to " +
                      fmt("(%g, %g, %g)", s.bounds_max.x, s.bounds_max.y, s.bounds_max.z));
   std::map<std::string, size_t> lights, materials;

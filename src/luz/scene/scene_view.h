@@ -24,7 +24,8 @@ struct LightsView {
 };
 
 struct SceneView {
-  // Triangles: all meshes merged; triangle k uses indices[3k..3k+2].
+  // Triangles: all meshes merged; triangle k uses indices[3k..3k+2]. The
+  // first num_triangles are the world's; the objects' follow (instances).
   const Vec3* positions = nullptr;
   const Vec3* normals = nullptr;  // per vertex, or null: flat shading
   const uint32_t* indices = nullptr;
@@ -41,6 +42,10 @@ struct SceneView {
   const Sphere* spheres = nullptr;
   uint32_t num_spheres = 0;
 
+  // Objects (their triangles stored after the num_triangles above, in
+  // object space) and the instances placing them.
+  InstancesView instances;
+
   MaterialsView materials;
   TextureView textures;
 
@@ -56,6 +61,18 @@ struct SceneView {
     p2 = positions[indices[3 * k + 2]];
   }
 
+  // The vertices of a hit's triangle in world space: an instance's mapped
+  // by its to_world, as Scene::flatten_instances maps them.
+  LUZ_INLINE void world_triangle(const Hit& hit, Vec3& p0, Vec3& p1, Vec3& p2) const {
+    triangle(hit.prim, p0, p1, p2);
+    if (hit.inst != kNoInstance) {
+      const Affine3& m = instances.list[hit.inst].to_world;
+      p0 = m.point(p0);
+      p1 = m.point(p1);
+      p2 = m.point(p2);
+    }
+  }
+
   LUZ_INLINE Vec3 triangle_normal(uint32_t k) const {
     Vec3 p0, p1, p2;
     triangle(k, p0, p1, p2);
@@ -63,34 +80,61 @@ struct SceneView {
   }
 
   LUZ_FORCE_INLINE Interaction interaction(const Ray& ray, const Hit& hit) const {
-    Interaction it;
     if (hit.kind == PrimKind::Triangle) {
+      if (hit.inst != kNoInstance) return instance_interaction(hit);
       Vec3 p0, p1, p2;
       triangle(hit.prim, p0, p1, p2);
-      float b0 = 1.f - hit.u - hit.v;
-      it.p = p0 * b0 + p1 * hit.u + p2 * hit.v;
-      it.ng = tri_normals ? tri_normals[hit.prim] : normalize(cross(p1 - p0, p2 - p0));
-      it.ns = it.ng;
-      if (normals) {
-        Vec3 n = normals[indices[3 * hit.prim]] * b0 + normals[indices[3 * hit.prim + 1]] * hit.u +
-                 normals[indices[3 * hit.prim + 2]] * hit.v;
-        float len = length(n);
-        if (len > 0.f) {
-          n = n / len;
-          it.ns = dot(n, it.ng) < 0.f ? -n : n;
-        }
-      }
-      it.material = tri_material[hit.prim];
-      it.emitter = tri_emitter[hit.prim];
-    } else {
-      const Sphere& s = spheres[hit.prim];
-      Vec3 d = normalize(ray.o + ray.d * hit.t - s.center);
-      it.p = s.center + d * s.radius;  // re-projected onto the sphere
-      it.ng = s.flip_normals ? -d : d;
-      it.ns = it.ng;
-      it.material = s.material;
-      it.emitter = s.emitter;
+      return triangle_interaction(hit, p0, p1, p2, tri_normals ? tri_normals[hit.prim] : normalize(cross(p1 - p0, p2 - p0)),
+                                  nullptr);
     }
+    Interaction it;
+    const Sphere& s = spheres[hit.prim];
+    Vec3 d = normalize(ray.o + ray.d * hit.t - s.center);
+    it.p = s.center + d * s.radius;  // re-projected onto the sphere
+    it.ng = s.flip_normals ? -d : d;
+    it.ns = it.ng;
+    it.material = s.material;
+    it.emitter = s.emitter;
+    return it;
+  }
+
+  // An instance's triangle hit, computed as interaction() computes the
+  // flattened triangle's: its vertices and vertex normals mapped to world
+  // space first, as Scene::flatten_instances maps them. Out of line on the
+  // CPU: the path loop of a scene without instances pays one branch.
+  LUZ_CPU_NOINLINE Interaction instance_interaction(const Hit& hit) const {
+    Vec3 p0, p1, p2;
+    world_triangle(hit, p0, p1, p2);
+    return triangle_interaction(hit, p0, p1, p2, normalize(cross(p1 - p0, p2 - p0)), &instances.list[hit.inst]);
+  }
+
+  // The surface at a triangle hit from its (world-space) vertices and unit
+  // geometric normal; `in`: the instance whose vertex normals are mapped, or
+  // null.
+  LUZ_FORCE_INLINE Interaction triangle_interaction(const Hit& hit, Vec3 p0, Vec3 p1, Vec3 p2, Vec3 ng,
+                                                    const Instance* in) const {
+    Interaction it;
+    float b0 = 1.f - hit.u - hit.v;
+    it.p = p0 * b0 + p1 * hit.u + p2 * hit.v;
+    it.ng = ng;
+    it.ns = it.ng;
+    if (normals) {
+      const uint32_t* v = indices + 3 * size_t(hit.prim);
+      Vec3 n0 = normals[v[0]], n1 = normals[v[1]], n2 = normals[v[2]];
+      if (in) {
+        n0 = in->normal(n0);
+        n1 = in->normal(n1);
+        n2 = in->normal(n2);
+      }
+      Vec3 n = n0 * b0 + n1 * hit.u + n2 * hit.v;
+      float len = length(n);
+      if (len > 0.f) {
+        n = n / len;
+        it.ns = dot(n, it.ng) < 0.f ? -n : n;
+      }
+    }
+    it.material = tri_material[hit.prim];
+    it.emitter = tri_emitter[hit.prim];
     return it;
   }
 
@@ -104,7 +148,7 @@ struct SceneView {
   LUZ_FORCE_INLINE Frame shading_frame(Interaction& it, const Hit& hit) const {
     const Material& m = materials.list[it.material];
     if (__builtin_expect((m.normal_map & m.bump_map) < 0, 1)) return Frame::from_normal(it.ns);  // neither map (both -1)
-    const Frame f = perturbed_frame(it.ng, it.ns, hit.kind, hit.prim, hit.u, hit.v, m);
+    const Frame f = perturbed_frame(it.ng, it.ns, hit, m);
     it.ns = f.n;
     return f;
   }
@@ -121,12 +165,12 @@ struct SceneView {
   // the integrator's side tests (against ng) apply unchanged; a degenerate
   // one (a (0.5, 0.5, 0.5) texel) leaves the frame unperturbed. The tangent
   // is dp/du made orthogonal to the new normal.
-  LUZ_FORCE_INLINE Frame perturbed_frame(Vec3 ng, Vec3 ns, PrimKind kind, uint32_t prim, float bu, float bv,
-                                         const Material& m) const {
-    if (kind != PrimKind::Triangle || !uvs) return Frame::from_normal(ns);  // the loader refuses these
+  LUZ_FORCE_INLINE Frame perturbed_frame(Vec3 ng, Vec3 ns, const Hit& hit, const Material& m) const {
+    if (hit.kind != PrimKind::Triangle || !uvs) return Frame::from_normal(ns);  // the loader refuses these
+    const float bu = hit.u, bv = hit.v;
     Vec3 p0, p1, p2;
-    triangle(prim, p0, p1, p2);
-    const uint32_t* v = indices + 3 * size_t(prim);
+    world_triangle(hit, p0, p1, p2);
+    const uint32_t* v = indices + 3 * size_t(hit.prim);
     const Vec2 t0 = uvs[v[0]], t1 = uvs[v[1]], t2 = uvs[v[2]];
     Vec3 dpdu, dpdv;
     triangle_dp_duv(p0, p1, p2, t0, t1, t2, ng, dpdu, dpdv);

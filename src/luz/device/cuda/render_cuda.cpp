@@ -1,7 +1,8 @@
 // Host side of the CUDA renderer: device checks, uploads, the pass loop and
 // the film. The kernel itself is in kernels.cu; the seam is launch.h.
 //
-// Memory: every SceneView array and the BVH (nodes, references) is copied
+// Memory: every SceneView array and the BVH (nodes, references; the
+// objects' trees and the instances of a two-level one) is copied
 // once into its own cudaMalloc'd buffer; a device SceneView and BvhTracer hold
 // those pointers and travel to the kernel by value, as its parameter. Two
 // output slots (device + pinned host, 28 bytes per pixel each) let the GPU
@@ -238,10 +239,17 @@ class Uploader {
   std::vector<DeviceBuffer> buffers_;
 };
 
-// Luz's BVH on the GPU, over geometry already uploaded.
+// Luz's BVH on the GPU, over geometry and instances already uploaded.
 BvhTracer upload_tracer(Uploader& up, const Bvh& bvh, const Vec3* positions, const uint32_t* indices,
-                        const Sphere* spheres, const OpacityView& opacity) {
+                        const Sphere* spheres, const OpacityView& opacity, const InstancesView& instances) {
   BvhTracer tracer;
+  if (!bvh.objects.empty()) {
+    tracer.instancing.nodes = up.upload(bvh.object_nodes.data(), bvh.object_nodes.size(), "the objects' BVH nodes");
+    tracer.instancing.prims = up.upload(bvh.object_prims.data(), bvh.object_prims.size(), "the objects' BVH references");
+    tracer.instancing.objects = up.upload(bvh.objects, "the objects' BVHs");
+    tracer.instancing.instances = instances.list;
+    tracer.instancing.count = instances.count;
+  }
   tracer.bvh.nodes = up.upload(bvh.nodes.data(), bvh.nodes.size(), "BVH nodes");
   tracer.bvh.num_nodes = uint32_t(bvh.nodes.size());
   tracer.bvh.prims = up.upload(bvh.prims.data(), bvh.prims.size(), "BVH primitive references");
@@ -314,6 +322,8 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.uvs = up.upload(scene.uvs, "texture coordinates");  // null when empty: no textures
   dev.tri_normals = nullptr;  // the GPU computes each hit's normal (not measured there with a table yet)
   dev.spheres = up.upload(scene.spheres, "spheres");
+  dev.instances.list = up.upload(scene.instances, "instances");
+  dev.instances.objects = up.upload(scene.objects, "objects");
   dev.materials.list = up.upload(scene.materials, "materials");
   dev.materials.bindings = up.upload(scene.texture_bindings, "texture bindings");
   dev.textures.list = up.upload(scene.textures, "textures");
@@ -328,7 +338,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.lights.sampler.bvh.infinite = up.upload(scene.light_bvh.infinite, "the infinite lights");
   dev.lights.data.floats = up.upload(scene.light_data, "environment maps");
   dev.lights.data.textures = dev.textures;
-  const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres, dev.opacity());
+  const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres, dev.opacity(), dev.instances);
 
   const uint32_t per_pass = options.samples_per_pass
                                 ? std::max(1u, std::min(std::min(options.samples_per_pass, kMaxSamplesPerPass), range))
@@ -488,9 +498,12 @@ double trace_rays_cuda(const Scene& scene, const std::vector<Ray>& rays, const s
   const Bvh bvh = build_bvh(scene.view());
   Uploader up;
   RayBatchParams p;
+  InstancesView instances = scene.view().instances;
+  instances.list = up.upload(scene.instances, "instances");
+  instances.objects = up.upload(scene.objects, "objects");
   p.tracer = upload_tracer(up, bvh, up.upload(scene.positions, "vertex positions"),
                            up.upload(scene.indices, "triangle indices"), up.upload(scene.spheres, "spheres"),
-                           OpacityView{});  // no materials here: masks are not tested
+                           OpacityView{}, instances);  // no materials here: masks are not tested
   p.rays = up.upload(rays, "rays");
   p.shadow = up.upload(shadow, "ray kinds");
   p.n = uint32_t(rays.size());
