@@ -33,7 +33,8 @@ inline const std::string& folder() {
       const std::string base = access("/dev/shm", W_OK) == 0 ? "/dev/shm" : tmp && *tmp ? tmp : "/tmp";
       path = base + "/luz-fuzz-" + std::to_string(getpid());
       std::filesystem::create_directories(path);
-      std::filesystem::copy(LUZ_FUZZ_ASSETS, path, std::filesystem::copy_options::overwrite_existing | std::filesystem::copy_options::recursive);
+      namespace fs = std::filesystem;
+      fs::copy(LUZ_FUZZ_ASSETS, path, fs::copy_options::overwrite_existing | fs::copy_options::recursive);
     }
     ~Folder() {
       std::error_code ec;

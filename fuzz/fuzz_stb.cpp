@@ -1,4 +1,6 @@
-// An 8-bit image through stb_image: PNG, JPEG, BMP or TGA (stb_image tells them by their bytes, whatever the extension), read as textures and environment maps are (read_image_linear).
+// An 8-bit image through stb_image: PNG, JPEG, BMP or TGA (stb_image tells
+// them by their bytes, whatever the extension), read as textures and
+// environment maps are (read_image_linear).
 #include "fuzz_common.h"
 #include "luz/io/image.h"
 

@@ -24,6 +24,7 @@
 #include <stb/stb_image.h>
 
 #include "luz/io/error.h"
+#include "luz/io/mesh_serialized.h"
 #include "luz/texture/texture.h"
 
 namespace luz {
@@ -102,6 +103,91 @@ void write_png_file(const std::string& path, const Image& img) {
     throw InputError(path, 0, "PNG encoding failed");
   std::FILE* f = open_for_writing(path);
   close_written(f, std::fwrite(png.data(), 1, png.size(), f) == png.size(), path);
+}
+
+// Guards against bugs of Debian 12's stb_image (2.27), fixed in 2.28.
+// A JPEG DHT table whose 16 code counts add up to more than 256 makes stb
+// write past its Huffman tables: such a file is refused before stb reads it.
+// Walks the markers, skipping each segment's payload (bytes inside one are
+// never taken for a marker); bytes past the end read as 0, as stb reads them.
+bool jpeg_huffman_tables_fit(const std::vector<uint8_t>& d) {
+  auto at = [&](size_t i) { return i < d.size() ? d[i] : uint8_t(0); };
+  if (at(0) != 0xFF || at(1) != 0xD8) return true;  // not a JPEG
+  for (size_t pos = 2; pos + 1 < d.size();) {
+    const uint8_t m = d[pos + 1];
+    // Entropy-coded data, byte stuffing, fill bytes, RSTn, TEM, SOI.
+    if (d[pos] != 0xFF || m == 0x00 || m == 0xFF || m == 0x01 || (m >= 0xD0 && m <= 0xD8)) {
+      ++pos;
+      continue;
+    }
+    const size_t end = pos + 2 + (size_t(at(pos + 2)) << 8 | at(pos + 3));
+    if (m == 0xC4)
+      for (size_t t = pos + 4; t < end;) {  // tables: class and id, 16 counts, the symbols
+        size_t symbols = 0;
+        for (size_t k = 1; k <= 16; ++k) symbols += at(t + k);
+        if (symbols > 256) return false;
+        t += 17 + symbols;
+      }
+    pos = end;
+  }
+  return true;
+}
+
+// stb loops forever on Radiance HDR run-length data cut short, reading
+// zeros past the end (CVE-2021-42715): it reads through callbacks that give
+// 0xFF past the end instead (a run stb completes or rejects), and an image
+// that needed them is refused as truncated.
+struct StbSource {
+  const std::vector<uint8_t>& data;
+  size_t pos = 0;
+  bool past_end = false;
+  static int read(void* user, char* out, int size) {
+    auto* s = static_cast<StbSource*>(user);
+    if (s->pos >= s->data.size()) {
+      s->past_end = true;
+      std::memset(out, 0xFF, size_t(size));
+      return size;
+    }
+    const size_t n = std::min(size_t(size), s->data.size() - s->pos);
+    std::memcpy(out, s->data.data() + s->pos, n);
+    s->pos += n;
+    return int(n);
+  }
+  static void skip(void* user, int n) {
+    auto* s = static_cast<StbSource*>(user);
+    s->pos = n < 0 ? s->pos - std::min(s->pos, size_t(-int64_t(n))) : s->pos + size_t(n);
+  }
+  static int eof(void* user) {
+    auto* s = static_cast<StbSource*>(user);
+    return s->pos >= s->data.size();
+  }
+};
+
+Image read_hdr(const std::string& path) {
+  const std::vector<uint8_t> data = read_binary_file(path);
+  int w = 0, h = 0, channels = 0;
+  // A run-length scanline holds at most 127 pixels per 2 bytes per channel
+  // (4): a header promising more pixels than that is refused before stb
+  // allocates and fills them.
+  const int size = int(std::min(data.size(), size_t(INT32_MAX)));
+  if (stbi_is_hdr_from_memory(data.data(), size) && stbi_info_from_memory(data.data(), size, &w, &h, &channels) &&
+      double(w) * double(h) > 16.0 * double(data.size()))
+    throw InputError(path, 0, "truncated Radiance HDR: " + std::to_string(w) + "x" + std::to_string(h) +
+                                  " pixels cannot fit in " + std::to_string(data.size()) + " bytes");
+  StbSource src{data};
+  const stbi_io_callbacks io{StbSource::read, StbSource::skip, StbSource::eof};
+  float* px = stbi_loadf_from_callbacks(&io, &src, &w, &h, &channels, 3);
+  if (src.past_end) {
+    stbi_image_free(px);
+    throw InputError(path, 0, "truncated Radiance HDR image");
+  }
+  if (!px) throw InputError(path, 0, std::string("cannot read Radiance HDR image: ") + stbi_failure_reason());
+  Image img;
+  img.width = w;
+  img.height = h;
+  img.rgb.assign(px, px + size_t(w) * size_t(h) * 3);
+  stbi_image_free(px);
+  return img;
 }
 
 }  // namespace
@@ -205,8 +291,11 @@ Image8 read_image8(const std::string& path) {
   std::string e = lower_extension(path);
   if (e != ".jpg" && e != ".jpeg" && e != ".png" && e != ".tga" && e != ".bmp")
     throw InputError(path, 0, "unsupported bitmap format '" + e + "' (supported: .jpg, .png, .tga, .bmp)");
+  const std::vector<uint8_t> data = read_binary_file(path);
+  if (!jpeg_huffman_tables_fit(data))
+    throw InputError(path, 0, "cannot read image: corrupt JPEG (a Huffman table of more than 256 codes)");
   int w = 0, h = 0, channels = 0;
-  stbi_uc* px = stbi_load(path.c_str(), &w, &h, &channels, 4);
+  stbi_uc* px = stbi_load_from_memory(data.data(), int(std::min(data.size(), size_t(INT32_MAX))), &w, &h, &channels, 4);
   if (!px) throw InputError(path, 0, std::string("cannot read image: ") + stbi_failure_reason());
   Image8 img;
   img.width = w;
@@ -225,13 +314,7 @@ Image read_image_linear(const std::string& path) {
   if (e == ".pfm") return read_pfm(path);
   Image img;
   if (e == ".hdr") {
-    int w = 0, h = 0, channels = 0;
-    float* px = stbi_loadf(path.c_str(), &w, &h, &channels, 3);
-    if (!px) throw InputError(path, 0, std::string("cannot read Radiance HDR image: ") + stbi_failure_reason());
-    img.width = w;
-    img.height = h;
-    img.rgb.assign(px, px + size_t(w) * size_t(h) * 3);
-    stbi_image_free(px);
+    img = read_hdr(path);
   } else {
     const Image8 ldr = read_image8(path);  // names the supported formats when e is none of them
     img.width = ldr.width;
