@@ -64,7 +64,7 @@ void read_image(const std::string& path) { luz::read_image_linear(path); }
 
 // stb_image's HDR run-length decoder read zeros past the end as empty runs, forever.
 TEST(FuzzRegressions, HdrRunLengthDataCutShort) {
-  expect_refused("hdr-rle-cut-short.hdr", read_image, "truncated Radiance HDR");
+  expect_refused("hdr-rle-cut-short.hdr", read_image, "cannot read Radiance HDR image: truncated");
 }
 
 // A JPEG Huffman table of more than 256 codes: stb_image wrote past its tables.
@@ -76,6 +76,18 @@ TEST(FuzzRegressions, JpegHuffmanTableOverflow) {
 TEST(FuzzRegressions, SerializedShapeWithoutVertices) {
   expect_refused("serialized-no-vertices.serialized", [](const std::string& p) { luz::read_serialized(p, 0); },
                  "triangle 0 names vertex 0 of 0");
+}
+
+// An image in a bufferView reaching past its buffer: tinygltf decoded it
+// from past the buffer's end.
+TEST(FuzzRegressions, GlbImageViewPastBuffer) {
+  expect_refused("glb-image-view-past-buffer.glb", [](const std::string& p) { luz::load_scene(p); },
+                 "images[0]: bufferView 4 reaches past the end of its buffer");
+}
+
+// An attribute claiming a gigabyte in a file of 53 bytes: OpenEXR allocated it.
+TEST(FuzzRegressions, ExrAttributePastEnd) {
+  expect_refused("exr-attribute-past-end.exr", read_image, "of 1036239617 bytes runs past the end of the file");
 }
 
 // The guards these fixes added refuse no good file: every image seed of the
