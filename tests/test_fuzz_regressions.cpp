@@ -67,6 +67,12 @@ TEST(FuzzRegressions, HdrRunLengthDataCutShort) {
   expect_refused("hdr-rle-cut-short.hdr", read_image, "cannot read Radiance HDR image: truncated");
 }
 
+// A header line cut short (no empty line ends the header): stb's header
+// reader, fed 0xFF past the end by the fix above, never reached its end.
+TEST(FuzzRegressions, HdrHeaderCutShort) {
+  expect_refused("hdr-header-cut-short.hdr", read_image, "cannot read Radiance HDR image");
+}
+
 // A JPEG Huffman table of more than 256 codes: stb_image wrote past its tables.
 TEST(FuzzRegressions, JpegHuffmanTableOverflow) {
   expect_refused("stb-jpeg-huffman-overflow.jpg", read_image, "a Huffman table of more than 256 codes");

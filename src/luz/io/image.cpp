@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <string_view>
 
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #define STB_IMAGE_WRITE_STATIC
@@ -135,16 +136,26 @@ bool jpeg_huffman_tables_fit(const uint8_t* d, size_t size) {
 
 // stb loops forever on Radiance HDR run-length data cut short, reading
 // zeros past the end (CVE-2021-42715): it reads through callbacks that give
-// 0xFF past the end instead (a run stb completes or rejects), and an image
-// that needed them is refused as truncated. (Other formats' decoders would
-// loop on the 0xFF: only a Radiance HDR file is read so.)
+// 0xFF past the end of pixel data instead (a run stb completes or rejects),
+// and an image that needed them is refused as truncated. A file that ends
+// in its header ends as stb expects (its header reader stops at the end).
+// Other formats' decoders would loop on the 0xFF: only Radiance HDR files
+// are read so.
 struct StbSource {
   const std::vector<uint8_t>& data;
+  size_t pixels_start = SIZE_MAX;  // after the resolution line, the line after the header's empty one
   size_t pos = 0;
   bool past_end = false;
+  explicit StbSource(const std::vector<uint8_t>& d) : data(d) {
+    const std::string_view text(reinterpret_cast<const char*>(d.data()), d.size());
+    const size_t blank = text.find("\n\n");
+    const size_t eol = blank == text.npos ? text.npos : text.find('\n', blank + 2);
+    if (eol != text.npos) pixels_start = eol + 1;
+  }
   static int read(void* user, char* out, int size) {
     auto* s = static_cast<StbSource*>(user);
     if (s->pos >= s->data.size()) {
+      if (s->data.size() <= s->pixels_start) return 0;
       s->past_end = true;
       std::memset(out, 0xFF, size_t(size));
       return size;
@@ -176,7 +187,7 @@ Image read_hdr(const std::string& path) {
   if (stbi_info_from_memory(data.data(), size, &w, &h, &channels) && double(w) * double(h) > 16.0 * double(data.size()))
     throw InputError(path, 0, "cannot read Radiance HDR image: " + std::to_string(w) + "x" + std::to_string(h) +
                                   " pixels cannot fit in " + std::to_string(data.size()) + " bytes (truncated?)");
-  StbSource src{data};
+  StbSource src(data);
   const stbi_io_callbacks io{StbSource::read, StbSource::skip, StbSource::eof};
   float* px = stbi_loadf_from_callbacks(&io, &src, &w, &h, &channels, 3);
   if (src.past_end) {
