@@ -96,6 +96,12 @@ TEST(FuzzRegressions, ExrAttributePastEnd) {
   expect_refused("exr-attribute-past-end.exr", read_image, "of 1036239617 bytes runs past the end of the file");
 }
 
+// A data window far from the origin: the frame buffer's base pointer,
+// moved back by the origin's offset, overflowed (UBSan).
+TEST(FuzzRegressions, ExrFarDataWindow) {
+  expect_refused("exr-far-data-window.exr", read_image, "cannot read OpenEXR: Error reading pixel data");
+}
+
 // The guards these fixes added refuse no good file: every image seed of the
 // fuzz targets reads, at its size.
 TEST(FuzzRegressions, ImageSeedsRead) {

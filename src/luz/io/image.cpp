@@ -311,10 +311,11 @@ Image read_exr(const std::string& path) {
     img.rgb.assign(size_t(img.width) * img.height * 3, 0.f);
     Imf::FrameBuffer fb;
     const size_t xs = 3 * sizeof(float), ys = xs * img.width;
-    char* base = reinterpret_cast<char*>(img.rgb.data()) - (dw.min.x * xs + dw.min.y * ys);
-    fb.insert("R", Imf::Slice(Imf::FLOAT, base, xs, ys));
-    fb.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xs, ys));
-    fb.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xs, ys));
+    // Slice::Make places the data window's origin at the pointer (moving a
+    // pointer back by the origin's offset overflows for a far origin).
+    fb.insert("R", Imf::Slice::Make(Imf::FLOAT, img.rgb.data(), dw, xs, ys));
+    fb.insert("G", Imf::Slice::Make(Imf::FLOAT, img.rgb.data() + 1, dw, xs, ys));
+    fb.insert("B", Imf::Slice::Make(Imf::FLOAT, img.rgb.data() + 2, dw, xs, ys));
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
     return img;
