@@ -67,10 +67,16 @@ TEST(FuzzRegressions, HdrRunLengthDataCutShort) {
   expect_refused("hdr-rle-cut-short.hdr", read_image, "cannot read Radiance HDR image: truncated");
 }
 
-// A header line cut short (no empty line ends the header): stb's header
-// reader, fed 0xFF past the end by the fix above, never reached its end.
+// A header cut short: stb's header reader never ended on a filler other
+// than a line feed.
 TEST(FuzzRegressions, HdrHeaderCutShort) {
   expect_refused("hdr-header-cut-short.hdr", read_image, "cannot read Radiance HDR image");
+}
+
+// A header ended by a line that starts with a NUL (stb takes it for the
+// empty line), then run-length data cut short.
+TEST(FuzzRegressions, HdrHeaderEndsAtNul) {
+  expect_refused("hdr-header-ends-at-nul.hdr", read_image, "cannot read Radiance HDR image: truncated");
 }
 
 // A JPEG Huffman table of more than 256 codes: stb_image wrote past its tables.

@@ -15,7 +15,6 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <string_view>
 
 #define STB_IMAGE_WRITE_IMPLEMENTATION
 #define STB_IMAGE_WRITE_STATIC
@@ -136,28 +135,20 @@ bool jpeg_huffman_tables_fit(const uint8_t* d, size_t size) {
 
 // stb loops forever on Radiance HDR run-length data cut short, reading
 // zeros past the end (CVE-2021-42715): it reads through callbacks that give
-// 0xFF past the end of pixel data instead (a run stb completes or rejects),
-// and an image that needed them is refused as truncated. A file that ends
-// in its header ends as stb expects (its header reader stops at the end).
-// Other formats' decoders would loop on the 0xFF: only Radiance HDR files
-// are read so.
+// line feeds past the end instead (one ends a header line; in run-length
+// data, each is a literal run of 10: stb moves on), and an image that
+// needed them is refused as truncated. Other formats' decoders could loop
+// on them: only Radiance HDR files are read so.
 struct StbSource {
   const std::vector<uint8_t>& data;
-  size_t pixels_start = SIZE_MAX;  // after the resolution line, the line after the header's empty one
   size_t pos = 0;
   bool past_end = false;
-  explicit StbSource(const std::vector<uint8_t>& d) : data(d) {
-    const std::string_view text(reinterpret_cast<const char*>(d.data()), d.size());
-    const size_t blank = text.find("\n\n");
-    const size_t eol = blank == text.npos ? text.npos : text.find('\n', blank + 2);
-    if (eol != text.npos) pixels_start = eol + 1;
-  }
+  explicit StbSource(const std::vector<uint8_t>& d) : data(d) {}
   static int read(void* user, char* out, int size) {
     auto* s = static_cast<StbSource*>(user);
     if (s->pos >= s->data.size()) {
-      if (s->data.size() <= s->pixels_start) return 0;
       s->past_end = true;
-      std::memset(out, 0xFF, size_t(size));
+      std::memset(out, '\n', size_t(size));
       return size;
     }
     const size_t n = std::min(size_t(size), s->data.size() - s->pos);
