@@ -85,6 +85,39 @@ int index_of(const tinygltf::Value& v) {
 }
 
 
+// tinygltf's image decoder, replaced: Luz's own (io/image.h: it refuses
+// files that Debian's stb_image mishandles), after a check tinygltf 2.7
+// lacks: that an image's bufferView lies inside its buffer (else the
+// decoder reads past the buffer's end). `model` is the model being read.
+bool decode_image(tinygltf::Image* image, int index, std::string* err, std::string*, int, int,
+                  const unsigned char* bytes, int size, void* model) {
+  const std::string where = "images[" + std::to_string(index) + "]";
+  if (image->bufferView >= 0) {  // tinygltf checked the indices
+    const auto* m = static_cast<const tinygltf::Model*>(model);
+    const tinygltf::BufferView& v = m->bufferViews[size_t(image->bufferView)];
+    const size_t buffer = m->buffers[size_t(v.buffer)].data.size();
+    if (v.byteOffset > buffer || v.byteLength > buffer - v.byteOffset) {
+      *err += where + ": bufferView " + std::to_string(image->bufferView) + " reaches past the end of its buffer\n";
+      return false;
+    }
+  }
+  try {
+    const Image8 img = decode_image8(where, bytes, size_t(std::max(size, 0)));
+    image->width = img.width;
+    image->height = img.height;
+    image->component = 4;
+    image->bits = 8;
+    image->pixel_type = TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE;
+    image->image.resize(img.rgba.size() * 4);
+    for (size_t k = 0; k < img.rgba.size(); ++k)
+      for (int c = 0; c < 4; ++c) image->image[4 * k + size_t(c)] = uint8_t(img.rgba[k] >> (8 * c));
+    return true;
+  } catch (const InputError& e) {
+    *err += e.what() + std::string("\n");
+    return false;
+  }
+}
+
 class GltfLoader {
  public:
   explicit GltfLoader(const std::string& path) : path_(path), builder_(path) {}
@@ -177,6 +210,7 @@ class GltfLoader {
     std::string err, warn_text, thrown;
     const std::string ext = lower_extension(path_);
     bool ok = false;
+    reader.SetImageLoader(decode_image, &model_);
     try {
       ok = ext == ".glb" ? reader.LoadBinaryFromFile(&model_, &err, &warn_text, path_)
                          : reader.LoadASCIIFromFile(&model_, &err, &warn_text, path_);

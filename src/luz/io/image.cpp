@@ -25,6 +25,7 @@
 
 #include "luz/io/atomic_file.h"
 #include "luz/io/error.h"
+#include "luz/io/mesh_serialized.h"
 #include "luz/texture/texture.h"
 
 namespace luz {
@@ -100,6 +101,143 @@ std::string encode_png(const Image& img) {
   return png;
 }
 
+// Guards against bugs of Debian 12's stb_image (2.27), fixed in 2.28.
+// A JPEG DHT table whose 16 code counts add up to more than 256 makes stb
+// write past its Huffman tables: such a file is refused before stb reads it.
+// Walks the markers, skipping each segment's payload (bytes inside one are
+// never taken for a marker); bytes past the end read as 0, as stb reads them.
+bool jpeg_huffman_tables_fit(const uint8_t* d, size_t size) {
+  auto at = [&](size_t i) { return i < size ? d[i] : uint8_t(0); };
+  if (at(0) != 0xFF || at(1) != 0xD8) return true;  // not a JPEG
+  for (size_t pos = 2; pos + 1 < size;) {
+    const uint8_t m = d[pos + 1];
+    // Entropy-coded data, byte stuffing, fill bytes, RSTn, TEM, SOI.
+    if (d[pos] != 0xFF || m == 0x00 || m == 0xFF || m == 0x01 || (m >= 0xD0 && m <= 0xD8)) {
+      ++pos;
+      continue;
+    }
+    const size_t end = pos + 2 + (size_t(at(pos + 2)) << 8 | at(pos + 3));
+    if (m == 0xC4)
+      for (size_t t = pos + 4; t < end;) {  // tables: class and id, 16 counts, the symbols
+        size_t symbols = 0;
+        for (size_t k = 1; k <= 16; ++k) symbols += at(t + k);
+        if (symbols > 256) return false;
+        t += 17 + symbols;
+      }
+    pos = end;
+  }
+  return true;
+}
+
+// stb loops forever on Radiance HDR run-length data cut short, reading
+// zeros past the end (CVE-2021-42715): it reads through callbacks that give
+// line feeds past the end instead (one ends a header line; in run-length
+// data, each is a literal run of 10: stb moves on), and an image that
+// needed them is refused as truncated. Other formats' decoders could loop
+// on them: only Radiance HDR files are read so.
+struct StbSource {
+  const std::vector<uint8_t>& data;
+  size_t pos = 0;
+  bool past_end = false;
+  explicit StbSource(const std::vector<uint8_t>& d) : data(d) {}
+  static int read(void* user, char* out, int size) {
+    auto* s = static_cast<StbSource*>(user);
+    if (s->pos >= s->data.size()) {
+      s->past_end = true;
+      std::memset(out, '\n', size_t(size));
+      return size;
+    }
+    const size_t n = std::min(size_t(size), s->data.size() - s->pos);
+    std::memcpy(out, s->data.data() + s->pos, n);
+    s->pos += n;
+    return int(n);
+  }
+  static void skip(void* user, int n) {
+    auto* s = static_cast<StbSource*>(user);
+    s->pos = n < 0 ? s->pos - std::min(s->pos, size_t(-int64_t(n))) : s->pos + size_t(n);
+  }
+  static int eof(void* user) {
+    auto* s = static_cast<StbSource*>(user);
+    return s->pos >= s->data.size();
+  }
+};
+
+Image read_hdr(const std::string& path) {
+  const std::vector<uint8_t> data = read_binary_file(path);
+  int w = 0, h = 0, channels = 0;
+  // A run-length scanline holds at most 127 pixels per 2 bytes per channel
+  // (4): a header promising more pixels than that is refused before stb
+  // allocates and fills them.
+  const int size = int(std::min(data.size(), size_t(INT32_MAX)));
+  if (!stbi_is_hdr_from_memory(data.data(), size))
+    throw InputError(path, 0, "cannot read Radiance HDR image: it starts with neither #?RADIANCE nor #?RGBE");
+  if (stbi_info_from_memory(data.data(), size, &w, &h, &channels) && double(w) * double(h) > 16.0 * double(data.size()))
+    throw InputError(path, 0, "cannot read Radiance HDR image: " + std::to_string(w) + "x" + std::to_string(h) +
+                                  " pixels cannot fit in " + std::to_string(data.size()) + " bytes (truncated?)");
+  StbSource src(data);
+  const stbi_io_callbacks io{StbSource::read, StbSource::skip, StbSource::eof};
+  float* px = stbi_loadf_from_callbacks(&io, &src, &w, &h, &channels, 3);
+  if (src.past_end) {
+    stbi_image_free(px);
+    throw InputError(path, 0, "cannot read Radiance HDR image: truncated");
+  }
+  if (!px) throw InputError(path, 0, std::string("cannot read Radiance HDR image: ") + stbi_failure_reason());
+  Image img;
+  img.width = w;
+  img.height = h;
+  img.rgb.assign(px, px + size_t(w) * size_t(h) * 3);
+  stbi_image_free(px);
+  return img;
+}
+
+// OpenEXR 3.1 trusts a file's header: it allocates an attribute at its
+// stated size before reading it, and buffers for the data window, so a file
+// of a few bytes could cost gigabytes. Checked first: every attribute of
+// every part lies inside the file, and a data window holds at most 4096
+// pixels per byte of the file (no OpenEXR compression comes near: zlib's
+// best packs 1032 bytes in one).
+void check_exr_header(const std::string& path, const std::vector<uint8_t>& d) {
+  auto fail = [&](size_t at, const std::string& problem) {
+    throw InputError(path, 0, "byte " + std::to_string(at) + ": " + problem);
+  };
+  auto i32 = [&](size_t at) {
+    if (at + 4 > d.size()) fail(at, "OpenEXR header cut short");
+    return int32_t(uint32_t(d[at]) | uint32_t(d[at + 1]) << 8 | uint32_t(d[at + 2]) << 16 | uint32_t(d[at + 3]) << 24);
+  };
+  auto text = [&](size_t at) {  // a zero-terminated name
+    const void* end = at < d.size() ? std::memchr(&d[at], 0, d.size() - at) : nullptr;
+    if (!end) fail(at, "OpenEXR header cut short");
+    return std::string(reinterpret_cast<const char*>(&d[at]), size_t(static_cast<const uint8_t*>(end) - &d[at]));
+  };
+  if (i32(0) != 20000630) fail(0, "not an OpenEXR file");
+  const bool multipart = i32(4) & 0x1000;
+  size_t pos = 8;
+  do {
+    if (pos >= d.size()) fail(pos, "OpenEXR header cut short");
+    if (multipart && d[pos] == 0) break;  // the empty header after the last part's
+    while (true) {
+      if (pos >= d.size()) fail(pos, "OpenEXR header cut short");
+      if (d[pos] == 0) break;
+      const std::string name = text(pos);
+      pos += name.size() + 1;
+      pos += text(pos).size() + 1;
+      const int32_t size = i32(pos);
+      pos += 4;
+      if (size < 0 || size_t(size) > d.size() - pos)
+        fail(pos - 4, "attribute '" + name + "' of " + std::to_string(size) + " bytes runs past the end of the file");
+      if (name == "dataWindow" && size >= 16) {
+        const double w = double(i32(pos + 8)) - i32(pos) + 1, h = double(i32(pos + 12)) - i32(pos + 4) + 1;
+        if (w < 1 || h < 1) fail(pos, "empty data window");
+        if (w * h > 4096.0 * double(d.size()))
+          fail(pos, "a data window of " + std::to_string(int64_t(w)) + "x" + std::to_string(int64_t(h)) +
+                        " pixels cannot fit in " + std::to_string(d.size()) + " bytes");
+      }
+      pos += size_t(size);
+    }
+    ++pos;
+  } while (multipart);
+}
+
 }  // namespace
 
 float linear_to_srgb(float v) {
@@ -139,6 +277,7 @@ void write_image(const std::string& path, const Image& img, const ExrFormat& exr
 }
 
 Image read_exr(const std::string& path) {
+  check_exr_header(path, read_binary_file(path));
   try {
     Imf::InputFile file(path.c_str());
     Imath::Box2i dw = file.header().dataWindow();
@@ -148,10 +287,11 @@ Image read_exr(const std::string& path) {
     img.rgb.assign(size_t(img.width) * img.height * 3, 0.f);
     Imf::FrameBuffer fb;
     const size_t xs = 3 * sizeof(float), ys = xs * img.width;
-    char* base = reinterpret_cast<char*>(img.rgb.data()) - (dw.min.x * xs + dw.min.y * ys);
-    fb.insert("R", Imf::Slice(Imf::FLOAT, base, xs, ys));
-    fb.insert("G", Imf::Slice(Imf::FLOAT, base + sizeof(float), xs, ys));
-    fb.insert("B", Imf::Slice(Imf::FLOAT, base + 2 * sizeof(float), xs, ys));
+    // Slice::Make places the data window's origin at the pointer (moving a
+    // pointer back by the origin's offset overflows for a far origin).
+    fb.insert("R", Imf::Slice::Make(Imf::FLOAT, img.rgb.data(), dw, xs, ys));
+    fb.insert("G", Imf::Slice::Make(Imf::FLOAT, img.rgb.data() + 1, dw, xs, ys));
+    fb.insert("B", Imf::Slice::Make(Imf::FLOAT, img.rgb.data() + 2, dw, xs, ys));
     file.setFrameBuffer(fb);
     file.readPixels(dw.min.y, dw.max.y);
     return img;
@@ -190,9 +330,16 @@ Image8 read_image8(const std::string& path) {
   std::string e = lower_extension(path);
   if (e != ".jpg" && e != ".jpeg" && e != ".png" && e != ".tga" && e != ".bmp")
     throw InputError(path, 0, "unsupported bitmap format '" + e + "' (supported: .jpg, .png, .tga, .bmp)");
+  const std::vector<uint8_t> data = read_binary_file(path);
+  return decode_image8(path, data.data(), data.size());
+}
+
+Image8 decode_image8(const std::string& name, const uint8_t* data, size_t size) {
+  if (!jpeg_huffman_tables_fit(data, size))
+    throw InputError(name, 0, "cannot read image: corrupt JPEG (a Huffman table of more than 256 codes)");
   int w = 0, h = 0, channels = 0;
-  stbi_uc* px = stbi_load(path.c_str(), &w, &h, &channels, 4);
-  if (!px) throw InputError(path, 0, std::string("cannot read image: ") + stbi_failure_reason());
+  stbi_uc* px = stbi_load_from_memory(data, int(std::min(size, size_t(INT32_MAX))), &w, &h, &channels, 4);
+  if (!px) throw InputError(name, 0, std::string("cannot read image: ") + stbi_failure_reason());
   Image8 img;
   img.width = w;
   img.height = h;
@@ -200,7 +347,7 @@ Image8 read_image8(const std::string& path) {
   for (size_t k = 0; k < img.rgba.size(); ++k)
     img.rgba[k] = pack_rgba8(px[4 * k], px[4 * k + 1], px[4 * k + 2], px[4 * k + 3]);
   stbi_image_free(px);
-  if (img.rgba.empty()) throw InputError(path, 0, "image is empty");
+  if (img.rgba.empty()) throw InputError(name, 0, "image is empty");
   return img;
 }
 
@@ -210,13 +357,7 @@ Image read_image_linear(const std::string& path) {
   if (e == ".pfm") return read_pfm(path);
   Image img;
   if (e == ".hdr") {
-    int w = 0, h = 0, channels = 0;
-    float* px = stbi_loadf(path.c_str(), &w, &h, &channels, 3);
-    if (!px) throw InputError(path, 0, std::string("cannot read Radiance HDR image: ") + stbi_failure_reason());
-    img.width = w;
-    img.height = h;
-    img.rgb.assign(px, px + size_t(w) * size_t(h) * 3);
-    stbi_image_free(px);
+    img = read_hdr(path);
   } else {
     const Image8 ldr = read_image8(path);  // names the supported formats when e is none of them
     img.width = ldr.width;

@@ -26,6 +26,8 @@ std::string lower_extension(const std::string& path);
 bool is_supported_image_extension(const std::string& path);
 // JPEG, PNG, TGA or BMP through stb_image; throws InputError naming the path.
 Image8 read_image8(const std::string& path);
+// The same from an image file's bytes (glTF's embedded images); `name` names it in errors.
+Image8 decode_image8(const std::string& name, const uint8_t* data, size_t size);
 // How an OpenEXR output is written (Mitsuba's hdrfilm pixel_format and
 // component_format): its channels (R G B; Y, the luminance; or X Y Z, CIE
 // 1931 from linear sRGB primaries) and their type (32- or 16-bit float).

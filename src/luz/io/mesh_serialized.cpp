@@ -163,6 +163,7 @@ class Reader {
     std::vector<uint8_t> raw(n * dim * fs);
     fill(raw.data(), raw.size());
     std::vector<V> out(n);
+    if (n == 0) return out;
     float* dst = &out.data()->x;  // Vec2 and Vec3 are plain arrays of floats
     for (size_t i = 0; i < n; ++i)
       for (size_t k = 0; k < dim; ++k) {

@@ -1,0 +1,7 @@
+// An OpenEXR image, read as textures and environment maps are (read_image_linear).
+#include "fuzz_common.h"
+#include "luz/io/image.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  return luz::fuzz::read_file(data, size, "image.exr", [](const std::string& path) { luz::read_image_linear(path); });
+}
