@@ -184,9 +184,9 @@ class GltfLoader {
     return true;
   }
 
-  // Decodes the pending images as tinygltf would (its LoadImageData, in
-  // parallel) into the model; returns the error text tinygltf would have
-  // stopped with at the first that fails ("" when none does).
+  // Decodes the pending images (decode_image, in parallel) into the model;
+  // returns the error text of the first that fails ("" when none does), as
+  // tinygltf would have stopped there.
   std::string decode_images() {
     std::vector<std::string> errors(pending_.size());
     tbb::parallel_for(size_t(0), pending_.size(), [&](size_t k) {
@@ -194,8 +194,8 @@ class GltfLoader {
       if (size_t(p.index) >= model_.images.size()) return;  // the model stopped before keeping it
       tinygltf::Image& im = model_.images[size_t(p.index)];
       std::string warn;
-      if (!tinygltf::LoadImageData(&im, p.index, &errors[k], &warn, p.req_width, p.req_height, p.bytes.data(),
-                                   int(p.bytes.size()), nullptr))
+      if (!decode_image(&im, p.index, &errors[k], &warn, p.req_width, p.req_height, p.bytes.data(),
+                        int(p.bytes.size()), &model_))
         errors[k] = p.err_before + errors[k];
     });
     pending_.clear();
@@ -210,7 +210,6 @@ class GltfLoader {
     std::string err, warn_text, thrown;
     const std::string ext = lower_extension(path_);
     bool ok = false;
-    reader.SetImageLoader(decode_image, &model_);
     try {
       ok = ext == ".glb" ? reader.LoadBinaryFromFile(&model_, &err, &warn_text, path_)
                          : reader.LoadASCIIFromFile(&model_, &err, &warn_text, path_);
