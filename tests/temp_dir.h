@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 #include <stdlib.h>
+#include <sys/resource.h>
+
+#include <csignal>
 
 #include <filesystem>
 #include <fstream>
@@ -30,3 +33,18 @@ class TempDirTest : public ::testing::Test {
     return p.string();
   }
 };
+
+// Runs f with the file-size limit at `bytes` (a write past it fails with
+// EFBIG, as on a full disk, instead of raising SIGXFSZ), then restores it.
+template <class F>
+void with_file_size_limit(rlim_t bytes, F&& f) {
+  struct rlimit old;
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
+  struct rlimit small = old;
+  small.rlim_cur = bytes;
+  void (*prev)(int) = std::signal(SIGXFSZ, SIG_IGN);
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  f();
+  ::setrlimit(RLIMIT_FSIZE, &old);
+  std::signal(SIGXFSZ, prev);
+}
