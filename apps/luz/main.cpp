@@ -104,6 +104,11 @@ struct RenderOptions {
     std::vector<std::string> a;
     auto put = [&](const std::string& k, const std::string& v) { a.push_back(k), a.push_back(v); };
     auto abs = [](const std::string& p) { return fs::absolute(p).lexically_normal().string(); };
+    auto exact = [](double v) {  // read back to the same double
+      char buf[32];
+      std::snprintf(buf, sizeof buf, "%.17g", v);
+      return std::string(buf);
+    };
     put("scene", abs(scene));
     for (const std::string& o : outs) put("output", abs(o));
     put("spp", std::to_string(spp));
@@ -114,11 +119,11 @@ struct RenderOptions {
     put("light-sampler", light_sampler);
     put("device", device);
     put("res", res);
-    put("scale", std::to_string(scale));
+    put("scale", exact(scale));
     for (const std::string& d : defines) put("define", d);
     for (const std::string& d : search) put("search", abs(d));
     put("checkpoint", abs(checkpoint));
-    put("checkpoint-every", std::to_string(checkpoint_every));
+    put("checkpoint-every", exact(checkpoint_every));
     for (const std::string& v : aovs) put("aov", v);
     return a;
   }
@@ -544,42 +549,30 @@ int main(int argc, char** argv) {
   rc->add_option("--device", o.device, "where to render: cpu (default), cuda (an NVIDIA GPU), auto (cuda if usable)")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   rc->add_option("--res", o.res, "render at WIDTHxHEIGHT instead of the scene's size (the field of view kept along the scene's axis)");
-  rc->add_option("--scale", o.scale, "render at F times the scene's width and height")
-      ->check(CLI::Validator(
-          [](std::string& t) -> std::string {
-            double v = 0;
-            auto r = std::from_chars(t.data(), t.data() + t.size(), v);
-            if (r.ec == std::errc() && r.ptr == t.data() + t.size() && v > 0 && v <= 65536) return std::string();
-            return "'" + t + "' is not a scale above 0 and at most 65536";
-          },
-          "F"));
-  rc->add_option("--time-limit", o.time_limit,
-                 "stop after about this many seconds of rendering, with the whole passes done (default: none)")
-      ->check(CLI::Validator(
-          [](std::string& s) -> std::string {
-            double v = 0;
-            auto r = std::from_chars(s.data(), s.data() + s.size(), v);
-            if (r.ec == std::errc() && r.ptr == s.data() + s.size() && v > 0 && v <= 1e9) return std::string();
-            return "'" + s + "' is not a number of seconds above 0 and at most 1e9";
-          },
-          "SECONDS"));
-  rc->add_option("-D", o.defines, "override a scene <default>: name=value")->allow_extra_args(false);
-  rc->add_option("-a", o.search, "a folder where files a Mitsuba scene names are also looked for (as Mitsuba's -a)")
-      ->allow_extra_args(false);
-  auto seconds_from = [](double lo, const char* what) {
+  // Decimal numbers in (lo, hi], or [lo, hi] with lo_in.
+  auto number_in = [](double lo, bool lo_in, double hi, std::string what, std::string name) {
     return CLI::Validator(
         [=](std::string& t) -> std::string {
           double v = 0;
           auto r = std::from_chars(t.data(), t.data() + t.size(), v);
-          if (r.ec == std::errc() && r.ptr == t.data() + t.size() && v >= lo && v <= 1e9) return std::string();
+          if (r.ec == std::errc() && r.ptr == t.data() + t.size() && (v > lo || (lo_in && v == lo)) && v <= hi)
+            return std::string();
           return "'" + t + "' is not " + what;
         },
-        "SECONDS");
+        name);
   };
+  rc->add_option("--scale", o.scale, "render at F times the scene's width and height")
+      ->check(number_in(0, false, 65536, "a scale above 0 and at most 65536", "F"));
+  rc->add_option("--time-limit", o.time_limit,
+                 "stop after about this many seconds of rendering, with the whole passes done (default: none)")
+      ->check(number_in(0, false, 1e9, "a number of seconds above 0 and at most 1e9", "SECONDS"));
+  rc->add_option("-D", o.defines, "override a scene <default>: name=value")->allow_extra_args(false);
+  rc->add_option("-a", o.search, "a folder where files a Mitsuba scene names are also looked for (as Mitsuba's -a)")
+      ->allow_extra_args(false);
   rc->add_option("--checkpoint", o.checkpoint,
                  "write the render's state to this file as it goes, to continue it with --resume after a stop or a crash");
   rc->add_option("--checkpoint-every", o.checkpoint_every, "seconds between checkpoints (default 300; 0: after every pass)")
-      ->check(seconds_from(0, "a number of seconds from 0 to 1e9"));
+      ->check(number_in(0, true, 1e9, "a number of seconds from 0 to 1e9", "SECONDS"));
   rc->add_option("--resume", resume,
                  "continue the render a checkpoint holds (its scene and settings; -o, --threads, --time-limit may change)");
   rc->add_option("--aov", o.aovs,

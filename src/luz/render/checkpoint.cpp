@@ -8,8 +8,6 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <limits>
-#include <memory>
 #include <new>
 #include <type_traits>
 
@@ -29,6 +27,18 @@ constexpr char kMagic[8] = {'L', 'U', 'Z', 'C', 'K', 'P', 'T', '1'};
 // Bounds a reader checks before it allocates.
 constexpr uint32_t kMaxStrings = 1 << 16, kMaxString = 1 << 20;
 constexpr uint32_t kMaxSide = 65536;
+
+// zlib's crc32 over any length (its own takes a uInt).
+uLong crc_update(uLong crc, const void* p, size_t n) {
+  const Bytef* b = static_cast<const Bytef*>(p);
+  while (n > 0) {
+    const uInt k = uInt(std::min<size_t>(n, 1u << 30));
+    crc = ::crc32(crc, b, k);
+    b += k;
+    n -= k;
+  }
+  return crc;
+}
 
 // 64-bit hash of bytes (whole 8-byte words through math/hash.h's mixer).
 class Hasher {
@@ -50,7 +60,7 @@ class Hasher {
   template <class T>
   void values(const std::vector<T>& v) {
     static_assert(std::is_trivially_copyable_v<T>);
-    hash_combine_count(v.size());
+    count(v.size());
     for (const T& x : v) value(x);
   }
   template <class T>
@@ -70,7 +80,7 @@ class Hasher {
   // memory held).
   template <class T, class Make>
   void live(const std::vector<T>& v, Make make) {
-    hash_combine_count(v.size());
+    count(v.size());
     for (const T& x : v) {
       alignas(T) unsigned char copy[sizeof(T)] = {};
       value(*make(static_cast<void*>(copy), x));
@@ -89,7 +99,7 @@ class Hasher {
   }
 
  private:
-  void hash_combine_count(size_t n) { h_ = hash_combine(h_, n); }
+  void count(size_t n) { h_ = hash_combine(h_, n); }
   uint64_t h_ = 0x4c757a;
 };
 
@@ -99,7 +109,7 @@ class Writer {
   explicit Writer(const std::string& path) : file_(path) {}
   void bytes(const void* p, size_t n) {
     file_.write(p, n);
-    crc(p, n);
+    crc_ = crc_update(crc_, p, n);
   }
   template <class T>
   void pod(const T& v) {
@@ -120,22 +130,13 @@ class Writer {
   }
 
  private:
-  void crc(const void* p, size_t n) {
-    const Bytef* b = static_cast<const Bytef*>(p);
-    while (n > 0) {  // crc32's length is a uInt
-      const uInt k = uInt(std::min<size_t>(n, 1u << 30));
-      crc_ = ::crc32(crc_, b, k);
-      b += k;
-      n -= k;
-    }
-  }
   AtomicFile file_;
   uLong crc_ = ::crc32(0, nullptr, 0);
 };
 
 class Reader {
  public:
-  Reader(const std::string& path) : path_(path), in_(path, std::ios::binary) {
+  explicit Reader(const std::string& path) : path_(path), in_(path, std::ios::binary) {
     struct stat st;
     if (::stat(path.c_str(), &st) != 0) throw InputError(path, 0, "cannot open the checkpoint: " + std::string(std::strerror(errno)));
     if (!S_ISREG(st.st_mode)) throw InputError(path, 0, "the checkpoint is not a regular file");
@@ -147,12 +148,7 @@ class Reader {
     if (n > left_ || !in_.read(static_cast<char*>(p), std::streamsize(n)))
       fail("the checkpoint is truncated (the render that wrote it was stopped, or the file was cut)");
     left_ -= n;
-    const Bytef* b = static_cast<const Bytef*>(p);
-    for (size_t k = 0; k < n;) {
-      const uInt m = uInt(std::min<size_t>(n - k, 1u << 30));
-      crc_ = ::crc32(crc_, b + k, m);
-      k += m;
-    }
+    crc_ = crc_update(crc_, p, n);
   }
   template <class T>
   T pod() {
