@@ -10,12 +10,15 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <atomic>
 #include <fstream>
 #include <sstream>
 
 #include "luz/io/error.h"
+#include "film_helpers.h"
 #include "luz/io/load.h"
 #include "luz/render/checkpoint.h"
+#include "luz/render/units.h"
 #include "temp_dir.h"
 
 namespace {
@@ -37,11 +40,6 @@ std::string slurp(const std::string& p) {
 
 void spit(const std::string& p, const std::string& bytes) { std::ofstream(p, std::ios::binary) << bytes; }
 
-void expect_same(const Film& a, const Film& b, const std::string& what) {
-  ASSERT_EQ(a.width, b.width) << what;
-  ASSERT_EQ(a.height, b.height) << what;
-  EXPECT_TRUE(a.sum == b.sum && a.sum_sq == b.sum_sq && a.count == b.count) << what;
-}
 
 // The problem of reading `path` as a checkpoint, checked to be one line
 // naming the file; "" when it reads.
@@ -54,6 +52,17 @@ std::string read_problem(const std::string& path) {
     return e.problem();
   }
   return "";
+}
+
+// Continuing from `c` gives the film of the render never stopped.
+void expect_exact_resume(const Scene& s, const Checkpoint& c, const std::string& what) {
+  RenderRequest tail;
+  tail.threads = 1;
+  tail.first_sample = c.next_sample;
+  tail.start = &c.film;
+  RenderRequest whole;
+  whole.threads = 2;
+  expect_same_film(render(s, tail).film, render(s, whole).film, what);
 }
 
 class CheckpointTest : public TempDirTest {};
@@ -81,19 +90,41 @@ TEST_F(CheckpointTest, RoundTripAndExactResume) {
   EXPECT_EQ(r.stats.rays, a.stats.rays);
   EXPECT_EQ(r.stats.seconds, a.stats.seconds);
   EXPECT_EQ(r.stats.spp, 13u);
-  expect_same(r.film, a.film, "read back");
+  expect_same_film(r.film, a.film, "read back");
 
-  RenderRequest tail;
-  tail.threads = 1;
-  tail.first_sample = r.next_sample;
-  tail.start = &r.film;
-  RenderRequest whole;
-  whole.threads = 2;
-  expect_same(render(s, tail).film, render(s, whole).film, "[0, 13) through a checkpoint, then [13, 40)");
+  expect_exact_resume(s, r, "[0, 13) through a checkpoint, then [13, 40)");
   // Only the checkpoint is in the directory: nothing temporary stays.
   size_t files = 0;
   for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir)) ++files;
   EXPECT_EQ(files, 1u);
+}
+
+// A film stopped with its blocks at different samples (an MPI render's):
+// the per-pixel progress goes through the file, and the resume is exact.
+TEST_F(CheckpointTest, PerPixelProgressRoundTrip) {
+  const Scene s = box(40, 10);
+  std::atomic<bool> cancel{false};
+  RenderRequest part;
+  part.threads = 2;
+  part.cancel = &cancel;
+  part.progress = [&](const RenderProgress& p) { cancel = p.passes_done >= 3; };
+  const RenderResult a = render_units(s, part, nullptr, 16);
+  ASSERT_FALSE(a.film.next.empty());
+  Checkpoint c;
+  c.fields = render_fields(s, RenderDevice::Cpu);
+  c.next_sample = a.stats.spp;
+  c.film = a.film;
+  const std::string path = (dir / "c.ckpt").string();
+  write_checkpoint(path, c);
+  const Checkpoint r = read_checkpoint(path);
+  EXPECT_EQ(r.film.next, a.film.next);
+  expect_same_film(r.film, a.film, "read back");
+  // A pixel ahead of its count is refused; so is one behind next_sample.
+  c.next_sample = a.stats.spp + 1;
+  write_checkpoint(path, c);
+  EXPECT_NE(read_problem(path).find("behind"), std::string::npos);
+
+  expect_exact_resume(s, r, "3 units through a checkpoint, then the rest");
 }
 
 TEST_F(CheckpointTest, TruncatedCorruptedAndForeignFilesAreRefused) {
@@ -111,7 +142,7 @@ TEST_F(CheckpointTest, TruncatedCorruptedAndForeignFilesAreRefused) {
   ASSERT_EQ(read_problem(good), "");
   // Every prefix and every byte changed, up to the film; then every 16th (the
   // film's arrays are read alike whatever their size).
-  const size_t film = bytes.size() - 16 * (6 * 8 + 4) - 4;
+  const size_t film = bytes.size() - 16 * (6 * 8 + 4) - 4 - 4;
   auto next = [&](size_t i) { return i < film ? i + 1 : i + 16; };
   for (size_t n = 0; n < bytes.size(); n = next(n)) {
     spit(bad, bytes.substr(0, n));

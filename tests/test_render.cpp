@@ -27,6 +27,7 @@
 #include "luz/accel/embree_tracer.h"
 #include "luz/device/cuda/render_cuda.h"
 #include "luz/integrator/path.h"
+#include "film_helpers.h"
 #include "luz/io/load.h"
 #include "luz/render/render.h"
 
@@ -59,16 +60,6 @@ RenderResult run(const Scene& s, int threads, uint32_t pass_spp = 0, uint32_t fi
   return render(s, req);
 }
 
-// Bitwise: sums, sums of squares and counts.
-void expect_same(const Film& a, const Film& b, const std::string& what) {
-  ASSERT_EQ(a.width, b.width) << what;
-  ASSERT_EQ(a.height, b.height) << what;
-  size_t diff = 0;
-  for (size_t i = 0; i < a.sum.size(); ++i)
-    diff += a.sum[i] != b.sum[i] || a.sum_sq[i] != b.sum_sq[i] || a.count[i / 3] != b.count[i / 3];
-  EXPECT_EQ(diff, 0u) << what << ": " << diff << " of " << a.sum.size() << " values differ";
-}
-
 uint64_t film_count(const Film& f) {
   uint64_t n = 0;
   for (uint32_t c : f.count) n += c;
@@ -99,7 +90,7 @@ TEST(Render, FilmIsTheSamplesAddedInIndexOrder) {
         ASSERT_TRUE(is_finite(L));
         want.add(x, y, L);
       }
-  expect_same(r.film, want, "render() against a plain loop");
+  expect_same_film(r.film, want, "render() against a plain loop");
 }
 
 TEST(Render, SameFilmForAnyThreadCount) {
@@ -108,7 +99,7 @@ TEST(Render, SameFilmForAnyThreadCount) {
     const RenderResult one = run(s, 1);
     EXPECT_TRUE(one.complete);
     EXPECT_EQ(film_count(one.film) + one.stats.discarded, 40u * 40u * 24u);
-    for (int threads : {2, 3}) expect_same(one.film, run(s, threads).film, std::string(sampler) + ", threads " + std::to_string(threads));
+    for (int threads : {2, 3}) expect_same_film(one.film, run(s, threads).film, std::string(sampler) + ", threads " + std::to_string(threads));
   }
 }
 
@@ -120,15 +111,15 @@ TEST(Render, SameFilmForAnyPassSchedule) {
   EXPECT_EQ(ones.stats.passes, 40u);
   const RenderResult fives = run(s, 3, 5);
   EXPECT_EQ(fives.stats.passes, 8u);
-  expect_same(whole.film, ones.film, "passes of 1 spp against one pass");
-  expect_same(whole.film, fives.film, "passes of 5 spp against one pass");
+  expect_same_film(whole.film, ones.film, "passes of 1 spp against one pass");
+  expect_same_film(whole.film, fives.film, "passes of 5 spp against one pass");
   // [0, 13) then [13, 40) onto its film: the resume of a checkpoint.
   const RenderResult head = run(s, 1, 0, 0, 13);
   EXPECT_EQ(head.stats.spp, 13u);
   EXPECT_TRUE(head.complete);
   const RenderResult tail = run(s, 2, 3, 13, 40, &head.film);
   EXPECT_EQ(tail.stats.spp, 27u);
-  expect_same(whole.film, tail.film, "[0, 13) + [13, 40) against [0, 40)");
+  expect_same_film(whole.film, tail.film, "[0, 13) + [13, 40) against [0, 40)");
   // The tail alone is a different film: the test can tell.
   const RenderResult alone = run(s, 2, 0, 13, 40);
   EXPECT_NE(alone.film.sum, tail.film.sum);
@@ -196,7 +187,7 @@ TEST(Render, TimeLimitReturnsWholePasses) {
   EXPECT_EQ(film_count(r.film) + r.stats.discarded, r.stats.samples);
   for (uint32_t c : r.film.count) ASSERT_LE(c, r.stats.spp);
   // The same film as a complete render of that many samples.
-  expect_same(r.film, run(s, 2, 0, 0, r.stats.spp).film, "time-limited against complete");
+  expect_same_film(r.film, run(s, 2, 0, 0, r.stats.spp).film, "time-limited against complete");
 }
 
 TEST(Render, CancellationFromTheProgressCallbackStopsEarly) {
@@ -216,7 +207,7 @@ TEST(Render, CancellationFromTheProgressCallbackStopsEarly) {
   EXPECT_EQ(r.stats.spp, 512u);
   EXPECT_LT(r.stats.spp, 1u << 20);
   EXPECT_EQ(film_count(r.film) + r.stats.discarded, 16u * 16u * r.stats.spp);
-  expect_same(r.film, run(s, 1, 0, 0, r.stats.spp).film, "cancelled against complete");
+  expect_same_film(r.film, run(s, 1, 0, 0, r.stats.spp).film, "cancelled against complete");
   // Cancelled before it starts: an empty film.
   const RenderResult none = render(s, req);
   EXPECT_FALSE(none.complete);
@@ -233,7 +224,7 @@ TEST(Render, RequestsThatContradictTheSceneAreRefused) {
   const RenderResult head = run(s, 1, 0, 0, 2);
   const RenderResult same = run(s, 1, 0, 2, 2, &head.film);
   EXPECT_TRUE(same.complete);
-  expect_same(same.film, head.film, "an empty range");
+  expect_same_film(same.film, head.film, "an empty range");
   RenderRequest req;
   req.device = RenderDevice::Cuda;
   std::string why;

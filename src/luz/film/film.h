@@ -23,10 +23,22 @@ struct PixelSums {
   }
 };
 
+// Pixels [x0, x1) × [y0, y1) of an image.
+struct PixelRect {
+  int x0 = 0, y0 = 0, x1 = 0, y1 = 0;
+  int width() const { return x1 - x0; }
+  int height() const { return y1 - y0; }
+  uint64_t pixels() const { return uint64_t(width()) * uint64_t(height()); }
+};
+
 struct Film {
   int width = 0, height = 0;
   std::vector<double> sum, sum_sq;  // 3 per pixel
   std::vector<uint32_t> count;      // samples per pixel (finite ones)
+  // Pixel i holds samples [0, next[i]) when the film was rendered by blocks
+  // that stopped at different samples (render/units.h); empty: every pixel
+  // holds the same range, which the render that made the film knows.
+  std::vector<uint32_t> next;
 
   Film() = default;
   Film(int w, int h) : width(w), height(h), sum(size_t(w) * h * 3), sum_sq(size_t(w) * h * 3), count(size_t(w) * h) {}
@@ -65,6 +77,18 @@ struct Film {
       sum_sq[3 * i + k] = p.sum_sq[k];
     }
     count[i] = p.count;
+  }
+
+  // The pixels of `r` as a film of its size, and back.
+  Film crop(const PixelRect& r) const {
+    Film f(r.width(), r.height());
+    for (int y = r.y0; y < r.y1; ++y)
+      for (int x = r.x0; x < r.x1; ++x) f.set(size_t(y - r.y0) * f.width + (x - r.x0), pixel(size_t(y) * width + x));
+    return f;
+  }
+  void paste(const PixelRect& r, const Film& f) {
+    for (int y = r.y0; y < r.y1; ++y)
+      for (int x = r.x0; x < r.x1; ++x) set(size_t(y) * width + x, f.pixel(size_t(y - r.y0) * f.width + (x - r.x0)));
   }
 
   // Mean per pixel, RGB interleaved, rows top to bottom.

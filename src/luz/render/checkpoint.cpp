@@ -23,7 +23,7 @@ namespace luz {
 
 namespace {
 
-constexpr char kMagic[8] = {'L', 'U', 'Z', 'C', 'K', 'P', 'T', '1'};
+constexpr char kMagic[8] = {'L', 'U', 'Z', 'C', 'K', 'P', 'T', '2'};
 // Bounds a reader checks before it allocates.
 constexpr uint32_t kMaxStrings = 1 << 16, kMaxString = 1 << 20;
 constexpr uint32_t kMaxSide = 65536;
@@ -264,6 +264,8 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
   if (film.width <= 0 || film.height <= 0 || film.sum.size() != 3 * pixels || film.sum_sq.size() != 3 * pixels ||
       film.count.size() != pixels)
     throw InputError(path, 0, "cannot write a checkpoint of an empty or inconsistent film");
+  if (!film.next.empty() && film.next.size() != pixels)
+    throw InputError(path, 0, "cannot write a checkpoint of an inconsistent film (its per-pixel progress)");
   Writer w(path);
   w.bytes(kMagic, sizeof kMagic);
   w.pod(uint32_t(c.fields.size()));
@@ -285,6 +287,8 @@ void write_checkpoint(const std::string& path, const Checkpoint& c) {
   w.array(film.sum);
   w.array(film.sum_sq);
   w.array(film.count);
+  w.pod(uint32_t(film.next.empty() ? 0 : 1));
+  if (!film.next.empty()) w.array(film.next);
   w.finish();
 }
 
@@ -314,17 +318,30 @@ Checkpoint read_checkpoint(const std::string& path) {
   const uint32_t w = r.pod<uint32_t>(), h = r.pod<uint32_t>();
   if (w == 0 || h == 0 || w > kMaxSide || h > kMaxSide)
     r.fail("the checkpoint is corrupted (a film of " + std::to_string(w) + "x" + std::to_string(h) + ")");
-  const uint64_t pixels = uint64_t(w) * h, need = pixels * (6 * sizeof(double) + sizeof(uint32_t)) + sizeof(uint32_t);
-  if (need != r.left())
-    r.fail(need > r.left() ? "the checkpoint is truncated (the render that wrote it was stopped, or the file was cut)"
-                           : "the checkpoint has bytes past its end");
+  const uint64_t pixels = uint64_t(w) * h, film_bytes = pixels * (6 * sizeof(double) + sizeof(uint32_t));
+  auto check_size = [&](uint64_t need) {
+    if (need != r.left())
+      r.fail(need > r.left() ? "the checkpoint is truncated (the render that wrote it was stopped, or the file was cut)"
+                             : "the checkpoint has bytes past its end");
+  };
+  if (film_bytes + sizeof(uint32_t) > r.left()) check_size(film_bytes + 2 * sizeof(uint32_t));
   c.film = Film(int(w), int(h));
   r.array(c.film.sum);
   r.array(c.film.sum_sq);
   r.array(c.film.count);
+  const uint32_t per_pixel = r.pod<uint32_t>();
+  if (per_pixel > 1) r.fail("the checkpoint is corrupted (its per-pixel progress flag)");
+  check_size((per_pixel ? pixels * sizeof(uint32_t) : 0) + sizeof(uint32_t));
+  if (per_pixel) {
+    c.film.next.resize(pixels);
+    r.array(c.film.next);
+  }
   r.finish();
-  for (uint32_t n : c.film.count)
-    if (n > c.next_sample) r.fail("the checkpoint is corrupted (a pixel has more samples than were taken)");
+  for (size_t i = 0; i < pixels; ++i) {
+    const uint32_t next = per_pixel ? c.film.next[i] : c.next_sample;
+    if (next < c.next_sample) r.fail("the checkpoint is corrupted (a pixel behind the checkpoint's first sample)");
+    if (c.film.count[i] > next) r.fail("the checkpoint is corrupted (a pixel has more samples than were taken)");
+  }
   return c;
 }
 

@@ -4,8 +4,10 @@
 // not at all (io/atomic_file.h). A render continued from a checkpoint is
 // bit-identical to one never stopped (render.h: sample ranges).
 //
-// The file: "LUZCKPT1", then little-endian fields, strings as a u32 length
-// and bytes, the film's arrays, and a CRC-32 (zlib) of everything before it.
+// The file: "LUZCKPT2", then little-endian fields, strings as a u32 length
+// and bytes, the film's arrays (per-pixel progress after a u32 flag, for a
+// film rendered by blocks: Film::next), and a CRC-32 (zlib) of everything
+// before it.
 #pragma once
 
 #include <cstdint>
@@ -24,7 +26,7 @@ using RenderFields = std::vector<std::pair<std::string, std::string>>;
 struct Checkpoint {
   RenderFields fields;            // what must match to resume
   std::vector<std::string> args;  // how the render was asked for (the CLI's flags), to ask again
-  uint32_t next_sample = 0;       // the film holds samples [0, next_sample) of every pixel
+  uint32_t next_sample = 0;       // the film holds samples [0, next_sample) of every pixel (at least: Film::next)
   RenderStats stats;              // over every run so far
   Film film;
 };

@@ -10,6 +10,7 @@
 
 #include "luz/device/cpu/render.h"
 #include "luz/device/cuda/render_cuda.h"
+#include "luz/render/units.h"
 
 namespace luz {
 
@@ -85,7 +86,7 @@ uint32_t next_pass_spp(uint64_t pixels, int threads, uint32_t previous, uint32_t
   return uint32_t(n);
 }
 
-RenderResult render(const Scene& scene, const RenderRequest& req) {
+void check_request(const Scene& scene, const RenderRequest& req) {
   const Camera& cam = scene.camera;
   const uint32_t first = req.first_sample, end = req.end_sample.value_or(scene.settings.spp);
   if (first > end)
@@ -95,6 +96,18 @@ RenderResult render(const Scene& scene, const RenderRequest& req) {
     throw std::invalid_argument("render: the start film is " + std::to_string(req.start->width) + "x" +
                                 std::to_string(req.start->height) + ", the camera " + std::to_string(cam.width) +
                                 "x" + std::to_string(cam.height));
+}
+
+RenderResult render(const Scene& scene, const RenderRequest& req) {
+  check_request(scene, req);
+  // A film stopped with blocks at different samples goes on by blocks.
+  if (req.start && !req.start->next.empty()) {
+    if (req.device != RenderDevice::Cpu)
+      throw std::invalid_argument("render: a film rendered by blocks (an MPI render's checkpoint) continues on the CPU");
+    return render_units(scene, req, nullptr, kUnitBlock);
+  }
+  const Camera& cam = scene.camera;
+  const uint32_t first = req.first_sample, end = req.end_sample.value_or(scene.settings.spp);
   const uint64_t pixels = uint64_t(cam.width) * uint64_t(cam.height);
   if (first == end) {  // nothing to render: the start film as it is
     RenderResult r;

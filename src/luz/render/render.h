@@ -76,7 +76,7 @@ struct RenderRequest {
 };
 
 struct RenderResult {
-  Film film;  // samples [0, first_sample + stats.spp) of every pixel (with `start`'s)
+  Film film;  // samples [0, first_sample + stats.spp) of every pixel (with `start`'s), at least: Film::next
   RenderStats stats;
   bool complete = false;  // false: stopped by the time limit or cancellation
 };
@@ -98,7 +98,15 @@ uint32_t next_pass_spp(uint64_t pixels, int threads, uint32_t previous, uint32_t
 
 // Throws std::invalid_argument for a request that contradicts the scene (a
 // start film of another size, a reversed sample range), and
-// CudaError from the CUDA device.
+// CudaError from the CUDA device. A start film with per-pixel progress
+// (Film::next: a checkpoint of an MPI render) continues by work units
+// (render/units.h) on the CPU.
 RenderResult render(const Scene& scene, const RenderRequest& request);
+
+// The std::invalid_argument render() throws for a request, if any.
+void check_request(const Scene& scene, const RenderRequest& request);
+
+// Pixels on a side of a work unit's block (render/units.h), where the image has enough of them.
+inline constexpr int kUnitBlock = 16;
 
 }  // namespace luz

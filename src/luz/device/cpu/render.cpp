@@ -70,9 +70,14 @@ CpuDevice::~CpuDevice() = default;
 int CpuDevice::threads() const { return m_->arena.max_concurrency(); }
 
 PassResult CpuDevice::render_pass(const Film& in, Film& out, uint32_t first, uint32_t end, const PassHooks& hooks) {
+  const Camera& cam = m_->view.camera;
+  return render_pass(in, out, PixelRect{0, 0, cam.width, cam.height}, first, end, hooks);
+}
+
+PassResult CpuDevice::render_pass(const Film& in, Film& out, const PixelRect& rect, uint32_t first, uint32_t end,
+                                  const PassHooks& hooks) {
   Impl& m = *m_;
-  const Camera& cam = m.view.camera;
-  const int tiles_x = (cam.width + kTile - 1) / kTile, tiles_y = (cam.height + kTile - 1) / kTile;
+  const int tiles_x = (rect.width() + kTile - 1) / kTile, tiles_y = (rect.height() + kTile - 1) / kTile;
   const int tiles = tiles_x * tiles_y;
   const uint32_t n = end - first;
   // Items per tile: 1 when the tiles alone keep the cores busy (then the
@@ -97,14 +102,14 @@ PassResult CpuDevice::render_pass(const Film& in, Film& out, uint32_t first, uin
       return;
     }
     const int tile = it / int(split), part = it % int(split);
-    const int x0 = (tile % tiles_x) * kTile, y0 = (tile / tiles_x) * kTile;
-    const int x1 = std::min(x0 + kTile, cam.width), y1 = std::min(y0 + kTile, cam.height);
+    const int x0 = rect.x0 + (tile % tiles_x) * kTile, y0 = rect.y0 + (tile / tiles_x) * kTile;
+    const int x1 = std::min(x0 + kTile, rect.x1), y1 = std::min(y0 + kTile, rect.y1);
     const uint32_t k0 = uint32_t(uint64_t(n) * part / split), k1 = uint32_t(uint64_t(n) * (part + 1) / split);
     uint64_t item_rays = 0, bad = 0;
     DimSeeds seeds[kSeedCacheDims];
     // Adds samples to pixel (x, y)'s sums from `in`, in index order.
     auto add_all = [&](int x, int y, auto&& samples_of) {
-      const size_t i = size_t(y) * cam.width + x;
+      const size_t i = size_t(y - rect.y0) * rect.width() + (x - rect.x0);
       PixelSums px = in.pixel(i);
       samples_of([&](const Color& L) {
         if (is_finite(L))

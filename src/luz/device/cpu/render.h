@@ -51,6 +51,11 @@ class CpuDevice {
   // item: when it answers true the remaining items are skipped and the
   // result is incomplete (out then holds some pixels' new sums, the rest stale).
   PassResult render_pass(const Film& in, Film& out, uint32_t first, uint32_t end, const PassHooks& hooks);
+  // The same over the pixels of `rect` only: in and out are films of the
+  // rect's size, image pixel (x, y) at (x - rect.x0, y - rect.y0). Its
+  // pixels' sums are those render_pass gives them, bit for bit.
+  PassResult render_pass(const Film& in, Film& out, const PixelRect& rect, uint32_t first, uint32_t end,
+                         const PassHooks& hooks);
 
  private:
   struct Impl;
