@@ -41,8 +41,16 @@ class LuzCliTest : public TempDirTest {
   // Starts luz with args in dir, stdout and stderr to the files out and err
   // (created or truncated), without waiting for it.
   pid_t spawn(const std::vector<std::string>& args, const fs::path& out, const fs::path& err) {
+    return spawn_program(LUZ_BINARY, args, out, err);
+  }
+
+  // The same for another program (e.g. mpirun), in a process group of its
+  // own (its pid), so that a test can stop it and all its children.
+  pid_t spawn_program(const std::string& program, const std::vector<std::string>& args, const fs::path& out,
+                      const fs::path& err) {
     pid_t pid = ::fork();
     if (pid == 0) {
+      ::setpgid(0, 0);
       if (::chdir(dir.c_str()) != 0) ::_exit(127);
       int o = ::open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
       int e = ::open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
@@ -50,7 +58,7 @@ class LuzCliTest : public TempDirTest {
       ::dup2(o, 1);
       ::dup2(e, 2);
       std::vector<char*> argv;
-      std::string bin = LUZ_BINARY;
+      std::string bin = program;
       argv.push_back(bin.data());
       std::vector<std::string> copy = args;
       for (std::string& a : copy) argv.push_back(a.data());

@@ -46,6 +46,7 @@
 #include "luz/scene/scene_info.h"
 #include "luz/render/aov.h"
 #include "luz/render/checkpoint.h"
+#include "luz/render/mpi.h"
 #include "luz/render/render.h"
 
 namespace {
@@ -162,6 +163,16 @@ struct RenderOptions {
     return o;
   }
 };
+
+// Errors are one line on stderr; the last is kept for an MPI job, whose
+// rank 0 prints the first failing rank's (the others' stderr is closed).
+std::string g_error_line;
+
+int report(const std::string& line, int status) {
+  std::fprintf(stderr, "%s\n", line.c_str());
+  g_error_line = line;
+  return status;
+}
 
 // SIGINT and SIGTERM: the first stops the render after its whole passes
 // (the image and a checkpoint are written, then exit 128 + signal); a second
@@ -286,7 +297,9 @@ void apply_flags(luz::RenderSettings& s, const RenderOptions& o, std::vector<std
 // `resume`: a checkpoint to continue ("" for a new render); `o` holds the
 // flags given now, which on a resume replace the checkpoint's (`given`
 // names them).
-int render(RenderOptions o, const std::string& resume, const std::set<std::string>& given) {
+// `job`: the MPI job this process is a rank of, or null.
+int render(RenderOptions o, const std::string& resume, const std::set<std::string>& given, luz::MpiJob* job) {
+  const bool root = !job || job->rank() == 0;  // the rank that writes
   std::optional<luz::Checkpoint> ckpt;
   if (!resume.empty()) {
     ckpt = luz::read_checkpoint(resume);
@@ -314,14 +327,15 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
   if (o.scene.empty()) throw luz::InputError("no scene given (luz render SCENE, or luz render --resume CHECKPOINT)");
   const luz::Defines defines = parse_defines(o.defines);
   if (o.outs.empty()) o.outs.push_back(fs::path(o.scene).stem().string() + ".exr");
-  for (const std::string& out : o.outs) check_output(out);
+  if (root)
+    for (const std::string& out : o.outs) check_output(out);
   if (!o.aovs.empty() && std::none_of(o.outs.begin(), o.outs.end(), [](const std::string& f) {
         return luz::lower_extension(f) == ".exr";
       }))
     throw luz::InputError("--aov: the layers go into an OpenEXR output; give one (-o out.exr)");
   // Where a checkpoint goes when a signal stops a render that names none.
   const bool explicit_checkpoint = !o.checkpoint.empty();
-  if (!explicit_checkpoint) {
+  if (!explicit_checkpoint && root) {
     // Beside the first output, named after it when the name fits.
     o.checkpoint = o.outs.front() + ".checkpoint";
     try {
@@ -330,7 +344,7 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
       o.checkpoint = (fs::path(o.outs.front()).parent_path() / ("luz-" + std::to_string(::getpid()) + ".checkpoint")).string();
     }
   }
-  luz::probe_writable(o.checkpoint);
+  if (root) luz::probe_writable(o.checkpoint);
   if (o.checkpoint_every < 0) o.checkpoint_every = kDefaultCheckpointEvery;
 
   // The device is settled before the scene is read: `--device cuda` without a
@@ -338,6 +352,9 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
   // has loaded, so that bad input still gives exactly one line.
   bool use_cuda = o.device == "cuda";
   std::string no_gpu;
+  if (job && o.device != "cpu")
+    throw luz::InputError("--device " + o.device + ": an MPI render runs on the CPU of each rank (CUDA ranks are not built yet)");
+  if (job && o.threads == 0) o.threads = job->default_threads();
   if (o.device == "cuda" || o.device == "auto") {
     use_cuda = luz::cuda_available(&no_gpu);
     if (!use_cuda && o.device == "cuda") throw luz::InputError("--device cuda: " + no_gpu);
@@ -358,6 +375,16 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
     if (!differs.empty()) throw luz::InputError(resume, 0, "cannot resume: " + differs);
   }
 
+  // Every rank has loaded and checked the scene: bad input on any fails the
+  // job here, before any rendering.
+  if (job) {
+    const std::string failed = job->agree("", o.threads);
+    if (!failed.empty()) return root ? report(failed, kExitBadInput) : kExitBadInput;
+    if (!root) {
+      install_signal_handlers();
+      return job->work(scene, o.threads, &g_cancel);
+    }
+  }
   for (const std::string& w : scene.warnings) std::fprintf(stderr, "%s\n", w.c_str());
   if (o.device == "auto" && !use_cuda)
     std::fprintf(stderr, "luz: warning: --device auto: no usable GPU (%s); rendering on the CPU\n", no_gpu.c_str());
@@ -370,7 +397,11 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
                         std::to_string(scene.instances.size()) + " instances")
                            .c_str(),
                  scene.spheres.size(), scene.lights.size(), scene.lights.size() == 1 ? "" : "s", load_seconds,
-                 use_cuda ? luz::cuda_device_name().c_str() : "the CPU",
+                 use_cuda ? luz::cuda_device_name().c_str()
+                 : job    ? (std::to_string(job->size()) + " MPI rank" + (job->size() == 1 ? "" : "s") + " (" +
+                          std::to_string(o.threads) + " threads on rank 0)")
+                             .c_str()
+                          : "the CPU",
                  ckpt ? (", resuming at sample " + std::to_string(ckpt->next_sample)).c_str() : "");
   if (!scene.lights_emit)
     std::fprintf(stderr, "luz: warning: %s: the scene has no light that emits, so the image will be black\n",
@@ -424,18 +455,26 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
     luz::ProgressBar bar(o.quiet ? Mode::Off : ::isatty(2) ? Mode::Bar : Mode::Lines, total, s.spp);
     bar.set_spp_done(req.first_sample);
     req.progress = [&](const luz::RenderProgress& p) { bar.set(p.samples_done, req.first_sample + p.spp_done); };
-    result = luz::render(scene, req);
+    result = job ? job->render(scene, req) : luz::render(scene, req);
   }
   const int sig = g_signal.load();
   const luz::RenderStats& stats = result.stats;
   luz::Checkpoint done = checkpoint_of(stats);
   const uint32_t spp_done = done.next_sample;
+  // Where it stopped: the spp every pixel has, and the share of all samples
+  // when blocks stopped at different samples (an MPI render's units).
+  std::string reached = std::to_string(spp_done) + " of " + std::to_string(s.spp) + " spp";
+  if (!result.film.next.empty()) {
+    double held = 0;
+    for (uint32_t n : result.film.next) held += n;
+    char share[64];
+    std::snprintf(share, sizeof share, " (%.1f%% of the samples)", 100.0 * held / (double(s.spp) * double(result.film.next.size())));
+    reached += share;
+  }
   if (!result.complete && sig)
-    std::fprintf(stderr, "luz: %s ended the render at %u of %u spp\n", sig == SIGINT ? "SIGINT" : "SIGTERM", spp_done,
-                 s.spp);
+    std::fprintf(stderr, "luz: %s ended the render at %s\n", sig == SIGINT ? "SIGINT" : "SIGTERM", reached.c_str());
   else if (!result.complete)
-    std::fprintf(stderr, "luz: the time limit of %g s ended the render at %u of %u spp\n", o.time_limit, spp_done,
-                 s.spp);
+    std::fprintf(stderr, "luz: the time limit of %g s ended the render at %s\n", o.time_limit, reached.c_str());
 
   const luz::Film& film = result.film;
   luz::Image img{film.width, film.height, film.mean()};
@@ -505,9 +544,7 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
   return sig ? 128 + sig : 0;  // a signal even after the last pass: the caller asked to stop
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv, luz::MpiJob* job) {
   CLI::App app{"Luz: a physically based path tracer"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("luz ") + luz::version() + " (" + luz::commit() + ")");
@@ -592,8 +629,7 @@ int main(int argc, char** argv) {
     // --help (and the like) print to stdout and succeed; a real parse error is
     // one line on stderr (CLI11's own printer adds a second "Run with --help").
     if (e.get_exit_code() == 0) return app.exit(e);
-    std::fprintf(stderr, "luz: error: %s (see luz render --help)\n", luz::InputError::one_line(e.what()).c_str());
-    return kExitBadInput;
+    return report("luz: error: " + luz::InputError::one_line(e.what()) + " (see luz render --help)", kExitBadInput);
   }
   // Every error is one line: "file:line: error: problem" when it concerns a
   // file, "luz: error: problem" otherwise.
@@ -613,24 +649,37 @@ int main(int argc, char** argv) {
       if (rc->get_option(flag)->count() > 0) given.insert(flag);
     if (!resume.empty() && given.count("scene"))
       throw luz::InputError("--resume " + resume + ": the checkpoint names its scene; give no scene file with it");
-    return render(o, resume, given);
+    return render(o, resume, given, job);
   } catch (const luz::InputError& e) {
-    if (e.file().empty())
-      std::fprintf(stderr, "luz: error: %s\n", e.problem().c_str());
-    else if (e.line() > 0)
-      std::fprintf(stderr, "%s:%d: error: %s\n", e.file().c_str(), e.line(), e.problem().c_str());
-    else
-      std::fprintf(stderr, "%s: error: %s\n", e.file().c_str(), e.problem().c_str());
-    return kExitBadInput;
+    if (e.file().empty()) return report("luz: error: " + e.problem(), kExitBadInput);
+    if (e.line() > 0)
+      return report(e.file() + ":" + std::to_string(e.line()) + ": error: " + e.problem(), kExitBadInput);
+    return report(e.file() + ": error: " + e.problem(), kExitBadInput);
   } catch (const luz::CudaError& e) {
     // No usable GPU is the user's setup (2); a GPU that fails mid-render, 1.
-    std::fprintf(stderr, "luz: error: CUDA: %s\n", e.what());
-    return e.kind() == luz::CudaError::Kind::Unavailable ? kExitBadInput : 1;
+    return report(std::string("luz: error: CUDA: ") + e.what(),
+                  e.kind() == luz::CudaError::Kind::Unavailable ? kExitBadInput : 1);
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "luz: error: out of memory\n");
-    return 1;
+    return report("luz: error: out of memory", 1);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "luz: error: %s\n", luz::InputError::one_line(e.what()).c_str());
-    return 1;
+    return report("luz: error: " + luz::InputError::one_line(e.what()), 1);
   }
+}
+
+}  // namespace
+
+// Under an MPI launcher every rank runs the same command; render() splits
+// the work (render/mpi.h) and finish() ends every rank with rank 0's status.
+int main(int argc, char** argv) {
+  std::optional<luz::MpiJob> job;
+  if (luz::mpi_launched()) {
+    try {
+      job.emplace(argc, argv);
+    } catch (const std::exception& e) {
+      if (luz::mpi_launched_rank() == 0) std::fprintf(stderr, "luz: error: %s\n", e.what());
+      return kExitBadInput;
+    }
+  }
+  const int status = run(argc, argv, job ? &*job : nullptr);
+  return job ? job->finish(status, g_error_line) : status;
 }

@@ -265,9 +265,14 @@ RenderResult render_units(const Scene& scene, const RenderRequest& req, RemoteWo
   for (;;) {
     const bool stopping = stop();
     for (int w = local ? 0 : 1; !stopping && w <= nremote; ++w) {
-      if (busy[size_t(w)]) continue;
+      if (busy[size_t(w)] || (w > 0 && !remote->available(w - 1))) continue;
       WorkUnit u;
-      if (!sched.take(kPassSamplesPerThread * uint64_t(std::max(threads_of(w), 1)), u)) break;
+      // A quarter of a second of the worker's threads, and no more than an
+      // eighth of the samples, so that every block advances in steps.
+      const uint64_t block_px = uint64_t(sched.block_size()) * uint64_t(sched.block_size());
+      const uint64_t samples = std::min(kPassSamplesPerThread * uint64_t(std::max(threads_of(w), 1)),
+                                        block_px * std::max<uint64_t>((end - first + 7) / 8, 1));
+      if (!sched.take(samples, u)) break;
       busy[size_t(w)] = true;
       Film in = res.film.crop(u.rect);
       if (w == 0)

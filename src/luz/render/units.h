@@ -87,6 +87,8 @@ class RemoteWorkers {
   virtual ~RemoteWorkers() = default;
   virtual int count() const = 0;
   virtual int threads(int worker) const = 0;
+  // False for a worker that left: it gets no more units.
+  virtual bool available(int) const { return true; }
   // Sends unit `u` with the block's sums so far to an idle worker.
   virtual void send(int worker, const WorkUnit& u, const Film& in) = 0;
   // A unit some worker finished, if any has (never blocks). Throws

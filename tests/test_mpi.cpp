@@ -1,0 +1,179 @@
+// The MPI driver (render/mpi.h), through mpirun and the luz binary:
+//  * mpirun -np 1, 2 and 4 (oversubscribed on a small machine) give images
+//    bit-identical to a single process's, for two scenes and two seeds.
+//  * A rank killed mid-render: rank 0 writes the image so far and a
+//    checkpoint; --resume on another number of ranks finishes the image
+//    bit-identical to the uninterrupted one.
+//  * A missing scene, a bad flag, a scene unreadable on one rank only, an
+//    unwritable output: one error line (from rank 0), every rank exits 2,
+//    within seconds.
+// Skipped when luz was built without MPI (LUZ_MPI=OFF or no MPI found).
+#include <signal.h>
+
+#include <chrono>
+#include <thread>
+
+#include "cli_helpers.h"
+
+namespace {
+
+using namespace luz_test;
+
+#ifdef LUZ_MPIEXEC
+const char* kMpiexec = LUZ_MPIEXEC;
+#else
+const char* kMpiexec = nullptr;
+#endif
+
+const std::string kBox = LUZ_SOURCE_DIR "/scenes/cornell-box.xml";
+const std::string kSpheres = LUZ_SOURCE_DIR "/bench/scenes/material-spheres.xml";
+
+size_t lines(const std::string& s) { return size_t(std::count(s.begin(), s.end(), '\n')); }
+
+class Mpi : public LuzCliTest {
+ protected:
+  void SetUp() override {
+    if (!kMpiexec) GTEST_SKIP() << "luz was built without MPI";
+    LuzCliTest::SetUp();
+    // OpenMPI refuses root without these (CI runs as root).
+    ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+    ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  }
+
+  static std::vector<std::string> mpirun_args(int ranks, const std::vector<std::string>& program) {
+    std::vector<std::string> a = {"-q", "--oversubscribe", "-np", std::to_string(ranks)};
+    a.insert(a.end(), program.begin(), program.end());
+    return a;
+  }
+
+  // mpirun -np `ranks` with `program` (luz's arguments after LUZ_BINARY, or
+  // a shell command line); fails the test (and kills the job) after `limit` seconds.
+  CliResult mpirun(int ranks, const std::vector<std::string>& program, double limit = 120) {
+    const fs::path out = dir / ".stdout", err = dir / ".stderr";
+    const pid_t pid = spawn_program(kMpiexec, mpirun_args(ranks, program), out, err);
+    return wait_for(pid, out, err, limit);
+  }
+
+  CliResult wait_for(pid_t pid, const fs::path& out, const fs::path& err, double limit) {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(limit);
+    int st = 0;
+    while (::waitpid(pid, &st, WNOHANG) == 0) {
+      if (std::chrono::steady_clock::now() > deadline) {
+        ::kill(-pid, SIGKILL);
+        ::waitpid(pid, &st, 0);
+        ADD_FAILURE() << "mpirun still running after " << limit << " s: killed";
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    CliResult r;
+    r.exited = WIFEXITED(st);
+    r.status = r.exited ? WEXITSTATUS(st) : -1;
+    r.signal = WIFSIGNALED(st) ? WTERMSIG(st) : 0;
+    r.out = slurp(out);
+    r.err = slurp(err);
+    return r;
+  }
+
+  static std::vector<std::string> luz(std::vector<std::string> args) {
+    args.insert(args.begin(), LUZ_BINARY);
+    return args;
+  }
+
+  // A shell running `command` on each rank, with $RANK its rank.
+  static std::vector<std::string> shell(const std::string& command) {
+    return {"/bin/sh", "-c", "RANK=$OMPI_COMM_WORLD_RANK; " + command};
+  }
+};
+
+TEST_F(Mpi, BitIdenticalToOneProcessForAnyRankCount) {
+  for (const std::string& scene : {kBox, kSpheres})
+    for (const char* seed : {"1", "77"}) {
+      const std::vector<std::string> args = {"render", scene, "-D", "res=40", "--spp", "12", "--seed", seed, "-q"};
+      std::vector<std::string> single = args;
+      single.insert(single.end(), {"-o", "single.pfm"});
+      const CliResult s = run(single);
+      ASSERT_EQ(s.status, 0) << s.err;
+      const std::string want = slurp(dir / "single.pfm");
+      for (int ranks : {1, 2, 4}) {
+        std::vector<std::string> a = args;
+        a.insert(a.end(), {"-o", "mpi.pfm"});
+        const CliResult r = mpirun(ranks, luz(a));
+        ASSERT_EQ(r.status, 0) << r.err;
+        EXPECT_TRUE(slurp(dir / "mpi.pfm") == want)
+            << fs::path(scene).filename() << " seed " << seed << ": " << ranks << " ranks differ from one process";
+      }
+    }
+}
+
+TEST_F(Mpi, KilledRankThenResumeOnOtherRankCounts) {
+  const std::vector<std::string> args = {"render", kBox, "-D", "res=64", "--spp", "1024", "--seed", "9", "-q"};
+  std::vector<std::string> single = args;
+  single.insert(single.end(), {"-o", "single.pfm"});
+  ASSERT_EQ(run(single).status, 0);
+  const std::string want = slurp(dir / "single.pfm");
+
+  // Three ranks; rank 1 is killed once all have started rendering.
+  std::string command = "echo $$ > pid.$RANK.tmp && mv pid.$RANK.tmp pid.$RANK && exec " + std::string(LUZ_BINARY);
+  for (const std::string& a : args) command += " '" + a + "'";
+  command += " -o mpi.pfm --checkpoint job.ckpt";
+  const fs::path out = dir / ".stdout", err = dir / ".stderr";
+  const pid_t job = spawn_program(kMpiexec, mpirun_args(3, shell(command)), out, err);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!fs::exists(dir / "pid.1") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ASSERT_TRUE(fs::exists(dir / "pid.1"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  const pid_t rank1 = std::stoi(slurp(dir / "pid.1"));
+  ASSERT_EQ(::kill(rank1, SIGKILL), 0);
+  const CliResult killed = wait_for(job, out, err, 60);
+  if (!fs::exists(dir / "job.ckpt")) {
+    // Only a render that finished before the kill leaves none (a very fast machine).
+    ASSERT_EQ(slurp(dir / "mpi.pfm"), want) << killed.err;
+    GTEST_SKIP() << "the render finished before the kill";
+  }
+  EXPECT_NE(killed.status, 0);
+  EXPECT_NE(killed.err.find("SIGTERM ended the render at"), std::string::npos) << killed.err;
+  ASSERT_TRUE(fs::exists(dir / "mpi.pfm")) << "no image of the render so far";
+
+  // Resumed on two ranks, and (from a copy) in one process.
+  fs::copy_file(dir / "job.ckpt", dir / "copy.ckpt");
+  const CliResult two = mpirun(2, luz({"render", "--resume", "job.ckpt", "-q"}));
+  ASSERT_EQ(two.status, 0) << two.err;
+  EXPECT_TRUE(slurp(dir / "mpi.pfm") == want) << "killed on 3 ranks, resumed on 2: differs";
+  const CliResult one = run({"render", "--resume", "copy.ckpt", "-o", "one.pfm", "-q"});
+  ASSERT_EQ(one.status, 0) << one.err;
+  EXPECT_TRUE(slurp(dir / "one.pfm") == want) << "killed on 3 ranks, resumed in one process: differs";
+  EXPECT_FALSE(fs::exists(dir / "job.ckpt")) << "a finished render keeps its checkpoint";
+}
+
+TEST_F(Mpi, BadInputIsOneLineAndEveryRankExitsTwo) {
+  struct Case {
+    const char* what;
+    std::string args;  // luz's, after the binary, in the shell
+    const char* message;
+  };
+  const std::string bin = LUZ_BINARY;
+  const std::vector<Case> cases = {
+      {"a missing scene", "render missing.xml -o x.pfm", "missing.xml: error: cannot open"},
+      {"a bad flag", "render '" + kBox + "' --spp 0 -o x.pfm", "luz: error: --spp"},
+      {"an unwritable output", "render '" + kBox + "' -o no/such/dir/x.pfm", "error: the directory"},
+      {"a scene unreadable on rank 2 only",
+       "render \"$( [ $RANK = 2 ] && echo gone.xml || echo '" + kBox + "')\" -D res=16 -o x.pfm",
+       "rank 2: gone.xml: error: cannot open"},
+  };
+  for (const Case& c : cases) {
+    for (int r = 0; r < 3; ++r) fs::remove(dir / ("status." + std::to_string(r)));
+    const auto start = std::chrono::steady_clock::now();
+    const CliResult res = mpirun(3, shell(bin + " " + c.args + "; echo $? > status.$RANK"), 30);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    EXPECT_EQ(lines(res.err), 1u) << c.what << ":\n" << res.err;
+    EXPECT_NE(res.err.find(c.message), std::string::npos) << c.what << ":\n" << res.err;
+    for (int r = 0; r < 3; ++r)
+      EXPECT_EQ(slurp(dir / ("status." + std::to_string(r))), "2\n") << c.what << ": rank " << r;
+    EXPECT_LT(seconds, 20) << c.what;
+    EXPECT_FALSE(fs::exists(dir / "x.pfm")) << c.what;
+  }
+}
+
+}  // namespace
