@@ -4,6 +4,8 @@
 //  * A rank killed mid-render: rank 0 writes the image so far and a
 //    checkpoint; --resume on another number of ranks finishes the image
 //    bit-identical to the uninterrupted one.
+//  * --broadcast: ranks that lack the scene's files get it from rank 0; the
+//    same image.
 //  * A missing scene, a bad flag, a scene unreadable on one rank only, an
 //    unwritable output: one error line (from rank 0), every rank exits 2,
 //    within seconds.
@@ -145,6 +147,23 @@ TEST_F(Mpi, KilledRankThenResumeOnOtherRankCounts) {
   ASSERT_EQ(one.status, 0) << one.err;
   EXPECT_TRUE(slurp(dir / "one.pfm") == want) << "killed on 3 ranks, resumed in one process: differs";
   EXPECT_FALSE(fs::exists(dir / "job.ckpt")) << "a finished render keeps its checkpoint";
+}
+
+TEST_F(Mpi, BroadcastReachesRanksWithoutTheFiles) {
+  const std::string scene = LUZ_SOURCE_DIR "/bench/scenes/envmap-spheres.xml";  // an HDR sky beside it
+  const std::vector<std::string> args = {"-D", "res=32", "-D", "spp=4", "--seed", "3", "-q", "--broadcast"};
+  std::vector<std::string> single = {"render", scene, "-o", "single.pfm"};
+  single.insert(single.end(), args.begin(), args.end());
+  const CliResult s = run(single);
+  ASSERT_EQ(s.status, 0) << s.err;
+  EXPECT_NE(s.err.find("--broadcast: not started by an MPI launcher"), std::string::npos) << s.err;
+  // Only rank 0 is given a scene that exists.
+  std::string command = "exec " + std::string(LUZ_BINARY) + " render \"$( [ $RANK = 0 ] && echo '" + scene +
+                        "' || echo /nowhere/scene.xml)\" -o mpi.pfm";
+  for (const std::string& a : args) command += " '" + a + "'";
+  const CliResult r = mpirun(3, shell(command));
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(slurp(dir / "mpi.pfm") == slurp(dir / "single.pfm")) << "the broadcast scene renders another image";
 }
 
 TEST_F(Mpi, BadInputIsOneLineAndEveryRankExitsTwo) {

@@ -44,6 +44,7 @@
 #include "luz/io/image.h"
 #include "luz/io/load.h"
 #include "luz/scene/scene_info.h"
+#include "luz/scene/serialize.h"
 #include "luz/render/aov.h"
 #include "luz/render/checkpoint.h"
 #include "luz/render/mpi.h"
@@ -97,6 +98,7 @@ struct RenderOptions {
   std::string checkpoint;
   double checkpoint_every = -1;  // < 0: the default
   bool quiet = false;
+  bool broadcast = false;  // an MPI render: rank 0 loads the scene and sends it
   std::vector<std::string> aovs;  // albedo, normal, depth, variance
 
   // Name/value pairs, flattened; only what a resume asks again (not the
@@ -300,6 +302,21 @@ void apply_flags(luz::RenderSettings& s, const RenderOptions& o, std::vector<std
 // `job`: the MPI job this process is a rank of, or null.
 int render(RenderOptions o, const std::string& resume, const std::set<std::string>& given, luz::MpiJob* job) {
   const bool root = !job || job->rank() == 0;  // the rank that writes
+  if (job && o.threads == 0) o.threads = job->default_threads();
+  if (job && o.broadcast && !root) {
+    // The scene comes from rank 0 once every rank agrees that it loaded.
+    if (!job->agree("", o.threads).empty()) return kExitBadInput;
+    std::string bytes;
+    job->broadcast(bytes);
+    install_signal_handlers();
+    try {
+      const luz::Scene scene = luz::deserialize_scene(bytes);
+      bytes = std::string();
+      return job->work(&scene, o.threads, &g_cancel);
+    } catch (const std::exception& e) {
+      return job->work(nullptr, o.threads, &g_cancel, std::string("the broadcast scene: ") + e.what());
+    }
+  }
   std::optional<luz::Checkpoint> ckpt;
   if (!resume.empty()) {
     ckpt = luz::read_checkpoint(resume);
@@ -354,7 +371,6 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
   std::string no_gpu;
   if (job && o.device != "cpu")
     throw luz::InputError("--device " + o.device + ": an MPI render runs on the CPU of each rank (CUDA ranks are not built yet)");
-  if (job && o.threads == 0) o.threads = job->default_threads();
   if (o.device == "cuda" || o.device == "auto") {
     use_cuda = luz::cuda_available(&no_gpu);
     if (!use_cuda && o.device == "cuda") throw luz::InputError("--device cuda: " + no_gpu);
@@ -382,8 +398,14 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
     if (!failed.empty()) return root ? report(failed, kExitBadInput) : kExitBadInput;
     if (!root) {
       install_signal_handlers();
-      return job->work(scene, o.threads, &g_cancel);
+      return job->work(&scene, o.threads, &g_cancel);
     }
+    if (o.broadcast) {
+      std::string bytes = luz::serialize_scene(scene);
+      job->broadcast(bytes);
+    }
+  } else if (o.broadcast) {
+    scene.warnings.push_back("luz: warning: --broadcast: not started by an MPI launcher (mpirun); nothing to send");
   }
   for (const std::string& w : scene.warnings) std::fprintf(stderr, "%s\n", w.c_str());
   if (o.device == "auto" && !use_cuda)
@@ -617,6 +639,8 @@ int run(int argc, char** argv, luz::MpiJob* job) {
                  "Open Image Denoise expects), depth (along the view axis), variance (of each pixel's mean)")
       ->delimiter(',')
       ->check(CLI::IsMember({"albedo", "normal", "depth", "variance"}));
+  rc->add_flag("--broadcast", o.broadcast,
+              "under mpirun: rank 0 loads the scene and sends it to the other ranks (for files only its machine has)");
   rc->add_flag("-q,--quiet", o.quiet, "no progress bar and no stats lines (warnings and errors still print)");
   CLI::App* ic = app.add_subcommand("info", "what a scene holds, without rendering: shapes, lights, materials, camera, warnings");
   std::string info_scene;

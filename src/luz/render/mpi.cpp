@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -265,10 +266,25 @@ RenderResult MpiJob::render(const Scene& scene, const RenderRequest& req) {
   return render_units(scene, req, &remote, block_size_for(cam.width, cam.height, j.size, kUnitBlock));
 }
 
-int MpiJob::work(const Scene& scene, int threads, const std::atomic<bool>* cancel) {
+void MpiJob::broadcast(std::string& bytes) {
+  uint64_t n = bytes.size();
+  MPI_Request req;
+  MPI_Ibcast(&n, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD, &req);
+  wait(req);
+  bytes.resize(n);
+  // In pieces: MPI counts are ints.
+  constexpr uint64_t kPiece = uint64_t(1) << 30;
+  for (uint64_t at = 0; at < n; at += kPiece) {
+    MPI_Ibcast(bytes.data() + at, int(std::min(kPiece, n - at)), MPI_BYTE, 0, MPI_COMM_WORLD, &req);
+    wait(req);
+  }
+}
+
+int MpiJob::work(const Scene* scene, int threads, const std::atomic<bool>* cancel, const std::string& error) {
   Impl& j = *m_;
   auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
-  CpuDevice device(scene, threads);
+  std::optional<CpuDevice> device;
+  if (scene) device.emplace(*scene, threads);
   for (;;) {
     const MPI_Status st = wait_message(0);
     const std::vector<char> b = receive(st);
@@ -279,11 +295,12 @@ int MpiJob::work(const Scene& scene, int threads, const std::atomic<bool>* cance
     }
     try {
       if (st.MPI_TAG != kTagUnit) throw std::runtime_error("MPI: an unexpected message (tag " + std::to_string(st.MPI_TAG) + ")");
+      if (!device) throw std::runtime_error(error);
       const WorkUnit u = unpack_unit(in);
       const Film start = unpack_film(in, u.rect);
       Film film(u.rect.width(), u.rect.height());
       PassResult p;
-      if (!cancelled()) p = device.render_pass(start, film, u.rect, u.first, u.end, PassHooks{cancelled, nullptr});
+      if (!cancelled()) p = device->render_pass(start, film, u.rect, u.first, u.end, PassHooks{cancelled, nullptr});
       Packer out;
       pack_unit(out, u);
       out.pod(uint32_t(p.complete));

@@ -1,7 +1,8 @@
 // The MPI driver: `mpirun -np N luz render SCENE ...` renders one frame on
 // N ranks (OpenMPI, or any MPI-3 library; LUZ_MPI in CMakeLists.txt).
 //
-// Every rank loads the scene itself. Rank 0 holds the film and hands out
+// Every rank loads the scene itself, or (--broadcast) rank 0 loads it and
+// sends it to the others, for files that exist only on its machine. Rank 0 holds the film and hands out
 // work units (render/units.h: a block of pixels × a range of samples, with
 // the block's sums so far) to whichever rank asks, and renders units
 // itself on a thread of its own; the others render the units they are sent
@@ -57,13 +58,18 @@ class MpiJob {
   // Called once.
   std::string agree(const std::string& error, int threads = 1);
 
+  // Collective, after a successful agree(): rank 0's `bytes` (a serialized
+  // scene: luz render --broadcast) replace the others'.
+  void broadcast(std::string& bytes);
+
   // Rank 0: the frame, with this process and every other rank as workers
   // (the request's CPU threads are this process's).
   RenderResult render(const Scene& scene, const RenderRequest& request);
   // The other ranks: render the units rank 0 sends until it says stop;
   // returns the exit status rank 0 gives. `cancel` makes this rank leave
-  // (its unit abandoned) and wait for the stop.
-  int work(const Scene& scene, int threads, const std::atomic<bool>* cancel);
+  // (its unit abandoned) and wait for the stop. Without a scene (one that
+  // failed to arrive), every unit is answered with `error`.
+  int work(const Scene* scene, int threads, const std::atomic<bool>* cancel, const std::string& error = "");
 
   // Ends the job with `status` on every rank (agree()s first when a rank
   // failed before agreeing, with `error`): rank 0 collects the units still

@@ -20,7 +20,8 @@ int MpiJob::size() const { return 1; }
 int MpiJob::default_threads() const { return 0; }
 std::string MpiJob::agree(const std::string& error, int) { return error; }
 RenderResult MpiJob::render(const Scene& scene, const RenderRequest& request) { return luz::render(scene, request); }
-int MpiJob::work(const Scene&, int, const std::atomic<bool>*) { return 0; }
+int MpiJob::work(const Scene*, int, const std::atomic<bool>*, const std::string&) { return 0; }
+void MpiJob::broadcast(std::string&) {}
 int MpiJob::finish(int status, const std::string&) { return status; }
 
 }  // namespace luz
