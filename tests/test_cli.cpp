@@ -710,3 +710,43 @@ TEST_F(Cli, ResAndScaleSetTheImageSize) {
   expect_bad({"render", box, "--res", "0x16", "-o", "c.pfm"}, "", 0, "each side must be between 1 and 65536");
   expect_bad({"render", box, "--scale", "-1", "-o", "c.pfm"}, "", 0, "not a scale above 0");
 }
+
+// Frame sequences: several scenes, or --frames NAME=values, each frame the
+// image its own render gives, named by the '#'s of -o; outputs that would
+// collide or lack a frame number, and bad --frames values, are one line,
+// exit 2, before any rendering.
+TEST_F(Cli, FramesRenderEachValueAndScene) {
+  const std::string box = std::string(LUZ_SOURCE_DIR) + "/scenes/cornell-box.xml";
+  Result r = run({"render", box, "--frames", "res=8,12", "--spp", "2", "-o", "f_###.pfm", "-q"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  r = run({"render", box, "--frames", "spp=1..2", "-D", "res=8", "-o", "s#.pfm", "-q"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  const std::vector<std::pair<std::string, std::vector<std::string>>> alone = {
+      {"f_001.pfm", {"-D", "res=8", "--spp", "2"}},
+      {"f_002.pfm", {"-D", "res=12", "--spp", "2"}},
+      {"s1.pfm", {"-D", "res=8", "-D", "spp=1"}},
+      {"s2.pfm", {"-D", "res=8", "-D", "spp=2"}}};
+  for (const auto& [name, flags] : alone) {
+    std::vector<std::string> args = {"render", box, "-o", "alone.pfm", "-q"};
+    args.insert(args.end(), flags.begin(), flags.end());
+    ASSERT_EQ(run(args).status, 0);
+    EXPECT_TRUE(slurp(dir / name) == slurp(dir / "alone.pfm")) << name;
+  }
+  // Two scenes: each named after its own file by default.
+  write_file(dir / "a.xml", slurp(box));
+  r = run({"render", box, "a.xml", "-a", std::string(LUZ_SOURCE_DIR) + "/scenes", "-D", "res=8", "--spp", "1", "-q"});
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(fs::exists(dir / "cornell-box.exr") && fs::exists(dir / "a.exr"));
+  for (const auto& f : {"cornell-box.exr", "a.exr", "alone.pfm", "f_001.pfm", "f_002.pfm", "s1.pfm", "s2.pfm"})
+    fs::remove(dir / f);
+
+  expect_bad({"render", box, "--frames", "res=8,12", "-o", "out.pfm"}, "", 0,
+             "-o out.pfm: 2 frames need a '#' in the name");
+  expect_bad({"render", box, box, "-o", "x#.pfm", "-o", "y.pfm"}, "", 0, "-o y.pfm: 2 frames need a '#'");
+  expect_bad({"render", box, box}, "", 0, "-o cornell-box.exr: two frames would write it");
+  expect_bad({"render", box, "--frames", "res"}, "", 0, "--frames res: expected NAME=V1,V2,... or NAME=A..B");
+  expect_bad({"render", box, "--frames", "res=8,,9", "-o", "#.pfm"}, "", 0, "an empty value");
+  expect_bad({"render", box, "--frames", "res=9..8", "-o", "#.pfm"}, "", 0, "a range is A..B");
+  expect_bad({"render", box, "--frames", "res=8,12", "-o", "#.pfm", "--checkpoint", "c.ckpt"}, "", 0,
+             "--checkpoint c.ckpt: 2 frames need a '#'");
+}

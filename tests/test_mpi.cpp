@@ -4,6 +4,7 @@
 //  * A rank killed mid-render: rank 0 writes the image so far and a
 //    checkpoint; --resume on another number of ranks finishes the image
 //    bit-identical to the uninterrupted one.
+//  * --frames on 3 ranks: each frame bit-identical to one process's.
 //  * --broadcast: ranks that lack the scene's files get it from rank 0; the
 //    same image.
 //  * A missing scene, a bad flag, a scene unreadable on one rank only, an
@@ -147,6 +148,20 @@ TEST_F(Mpi, KilledRankThenResumeOnOtherRankCounts) {
   ASSERT_EQ(one.status, 0) << one.err;
   EXPECT_TRUE(slurp(dir / "one.pfm") == want) << "killed on 3 ranks, resumed in one process: differs";
   EXPECT_FALSE(fs::exists(dir / "job.ckpt")) << "a finished render keeps its checkpoint";
+}
+
+TEST_F(Mpi, FramesOnThreeRanks) {
+  const std::vector<std::string> args = {"render", kBox, "--frames", "res=8..10", "--spp", "3", "-q"};
+  std::vector<std::string> single = args;
+  single.insert(single.end(), {"-o", "one_#.pfm"});
+  ASSERT_EQ(run(single).status, 0);
+  std::vector<std::string> a = args;
+  a.insert(a.end(), {"-o", "mpi_#.pfm"});
+  const CliResult r = mpirun(3, luz(a));
+  ASSERT_EQ(r.status, 0) << r.err;
+  for (const char* k : {"1", "2", "3"})
+    EXPECT_TRUE(slurp(dir / ("mpi_" + std::string(k) + ".pfm")) == slurp(dir / ("one_" + std::string(k) + ".pfm")))
+        << "frame " << k;
 }
 
 TEST_F(Mpi, BroadcastReachesRanksWithoutTheFiles) {

@@ -296,6 +296,86 @@ void apply_flags(luz::RenderSettings& s, const RenderOptions& o, std::vector<std
 }
 
 
+// A frame sequence: every scene given, each with every value of --frames
+// NAME=V1,V2,... or NAME=A..B (whole numbers, both ends included) as
+// `-D NAME=value`, numbered from 1 in that order. Each run of '#' in an
+// output or checkpoint name becomes the frame number, zero-padded to the
+// run's length; several frames need one in each name.
+std::vector<RenderOptions> frame_list(const RenderOptions& o, const std::vector<std::string>& scenes,
+                                      const std::string& spec) {
+  std::string name;
+  std::vector<std::string> values;
+  if (!spec.empty()) {
+    const size_t eq = spec.find('=');
+    if (eq == 0 || eq == std::string::npos || eq + 1 == spec.size())
+      throw luz::InputError("--frames " + spec + ": expected NAME=V1,V2,... or NAME=A..B");
+    name = spec.substr(0, eq);
+    const std::string list = spec.substr(eq + 1);
+    long long a = 0, b = 0;
+    const size_t dots = list.find("..");
+    auto whole = [](const std::string& t, long long& v) {
+      auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+      return !t.empty() && r.ec == std::errc() && r.ptr == t.data() + t.size();
+    };
+    if (dots != std::string::npos) {
+      if (!whole(list.substr(0, dots), a) || !whole(list.substr(dots + 2), b) || b < a || b - a >= 1000000)
+        throw luz::InputError("--frames " + spec + ": a range is A..B, whole numbers with A <= B, at most 1000000 frames");
+      for (long long v = a; v <= b; ++v) values.push_back(std::to_string(v));
+    } else {
+      for (size_t at = 0; at <= list.size();) {
+        const size_t comma = std::min(list.find(',', at), list.size());
+        if (comma == at) throw luz::InputError("--frames " + spec + ": an empty value");
+        values.push_back(list.substr(at, comma - at));
+        at = comma + 1;
+      }
+    }
+  }
+  if (values.empty()) values.push_back("");
+  std::vector<std::string> paths = scenes;
+  if (paths.empty()) paths.push_back(o.scene);
+  const size_t n = paths.size() * values.size();
+  auto number = [](const std::string& pattern, size_t frame, size_t frames, const std::string& what) {
+    if (pattern.find('#') == std::string::npos) {
+      if (frames > 1)
+        throw luz::InputError(what + " " + pattern + ": " + std::to_string(frames) +
+                              " frames need a '#' in the name for the frame number (e.g. out_###.exr)");
+      return pattern;
+    }
+    std::string out;
+    for (size_t i = 0; i < pattern.size();) {
+      if (pattern[i] != '#') {
+        out += pattern[i++];
+        continue;
+      }
+      size_t run = 0;
+      while (i < pattern.size() && pattern[i] == '#') ++run, ++i;
+      const std::string digits = std::to_string(frame);
+      out += std::string(run > digits.size() ? run - digits.size() : 0, '0') + digits;
+    }
+    return out;
+  };
+  std::vector<RenderOptions> frames;
+  std::set<std::string> written;
+  for (const std::string& path : paths)
+    for (const std::string& value : values) {
+      RenderOptions f = o;
+      const size_t k = frames.size() + 1;
+      f.scene = path;
+      if (!name.empty()) f.defines.push_back(name + "=" + value);
+      const bool named = !f.outs.empty();  // else one per scene, numbered when a scene has several frames
+      if (!named && !path.empty())
+        f.outs.push_back(fs::path(path).stem().string() + (values.size() > 1 ? "_####" : "") + ".exr");
+      for (std::string& out : f.outs) {
+        out = number(out, k, named ? n : 1, "-o");
+        if (n > 1 && !written.insert(fs::absolute(out).lexically_normal().string()).second)
+          throw luz::InputError("-o " + out + ": two frames would write it");
+      }
+      if (!f.checkpoint.empty()) f.checkpoint = number(f.checkpoint, k, n, "--checkpoint");
+      frames.push_back(std::move(f));
+    }
+  return frames;
+}
+
 // `resume`: a checkpoint to continue ("" for a new render); `o` holds the
 // flags given now, which on a resume replace the checkpoint's (`given`
 // names them).
@@ -573,7 +653,12 @@ int run(int argc, char** argv, luz::MpiJob* job) {
   CLI::App* rc = app.add_subcommand("render", "render a scene (Mitsuba 3 XML, pbrt-v4, glTF 2.0, OBJ or PLY) to an image");
   RenderOptions o;
   std::string resume;
-  rc->add_option("scene", o.scene, "scene file (.xml, .pbrt, .gltf, .glb, .obj or .ply); not with --resume");
+  std::vector<std::string> scenes;
+  std::string frames_spec;
+  rc->add_option("scene", scenes,
+                 "scene file (.xml, .pbrt, .gltf, .glb, .obj or .ply); several: a frame each; not with --resume");
+  rc->add_option("--frames", frames_spec,
+                 "a frame per value of a scene <default>: NAME=V1,V2,... or NAME=A..B; '#' in -o names numbers them");
   rc->add_option("-o,--output", o.outs, "output image: .exr (float), .pfm, or .png (sRGB); may repeat")
       ->allow_extra_args(false);
   // Whole decimal integers in a range, each flag with its own message (CLI11's
@@ -673,7 +758,20 @@ int run(int argc, char** argv, luz::MpiJob* job) {
       if (rc->get_option(flag)->count() > 0) given.insert(flag);
     if (!resume.empty() && given.count("scene"))
       throw luz::InputError("--resume " + resume + ": the checkpoint names its scene; give no scene file with it");
-    return render(o, resume, given, job);
+    if (!resume.empty() && !frames_spec.empty())
+      throw luz::InputError("--resume " + resume + ": a checkpoint continues one frame; give no --frames with it");
+    // Frame by frame; under MPI every rank renders each frame's units, and
+    // rank 0's status after a frame decides for all whether the next starts.
+    const std::vector<RenderOptions> frames = resume.empty() ? frame_list(o, scenes, frames_spec)
+                                                             : std::vector<RenderOptions>{o};
+    if (frames.size() > 1 && (!job || job->rank() == 0))  // every frame's outputs before the first render
+      for (const RenderOptions& f : frames)
+        for (const std::string& out : f.outs) check_output(out);
+    for (size_t k = 0;; ++k) {
+      const int status = render(frames[k], resume, given, job);
+      if (status != 0 || k + 1 == frames.size()) return status;
+      if (job) job->end_frame(status);
+    }
   } catch (const luz::InputError& e) {
     if (e.file().empty()) return report("luz: error: " + e.problem(), kExitBadInput);
     if (e.line() > 0)
@@ -705,5 +803,11 @@ int main(int argc, char** argv) {
     }
   }
   const int status = run(argc, argv, job ? &*job : nullptr);
-  return job ? job->finish(status, g_error_line) : status;
+  if (!job) return status;
+  const int job_status = job->finish(status, g_error_line);
+  // The job is over: a launcher that stops the ranks still finalising,
+  // because one already exited non-zero, must not make rank 0 speak again.
+  ::signal(SIGINT, SIG_IGN);
+  ::signal(SIGTERM, SIG_IGN);
+  return job_status;
 }

@@ -337,8 +337,20 @@ int MpiJob::finish(int status, const std::string& error) {
     }
     return status;
   }
-  // Rank 0: the units still out come back (a stop ends them within a unit),
-  // then every rank gets the status.
+  if (!j.stopped) stop(status);
+  return status;
+}
+
+void MpiJob::end_frame(int status) {
+  Impl& j = *m_;
+  if (j.rank == 0) stop(status);
+  j.agreed = j.stopped = false;
+}
+
+void MpiJob::stop(int status) {
+  Impl& j = *m_;
+  // The units still out come back (a stop ends them within a unit), then
+  // every rank gets the status.
   for (int r = 1; r < j.size; ++r) {
     while (j.out[size_t(r)]) {
       const MPI_Status st = wait_message(r);
@@ -346,11 +358,12 @@ int MpiJob::finish(int status, const std::string& error) {
       if (st.MPI_TAG == kTagResult || st.MPI_TAG == kTagError) j.out[size_t(r)] = 0;
     }
     if (j.send_req[size_t(r)] != MPI_REQUEST_NULL) wait(j.send_req[size_t(r)]);
+    j.gone[size_t(r)] = 0;
   }
   Packer stop;
   stop.pod(int32_t(status));
   for (int r = 1; r < j.size; ++r) send(stop.bytes(), r, kTagStop);
-  return status;
+  j.stopped = true;
 }
 
 }  // namespace luz

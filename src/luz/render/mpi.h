@@ -71,6 +71,11 @@ class MpiJob {
   // failed to arrive), every unit is answered with `error`.
   int work(const Scene* scene, int threads, const std::atomic<bool>* cancel, const std::string& error = "");
 
+  // After a frame (luz render --frames): rank 0 collects the units still
+  // out and sends `status` (the others' work() returns it); then the next
+  // frame agree()s and renders afresh.
+  void end_frame(int status);
+
   // Ends the job with `status` on every rank (agree()s first when a rank
   // failed before agreeing, with `error`): rank 0 collects the units still
   // out and sends the status; the others return it.
@@ -79,6 +84,8 @@ class MpiJob {
   struct Impl;  // mpi.cpp's
 
  private:
+  void stop(int status);  // rank 0: collect the units out, send the status
+
   std::unique_ptr<Impl> m_;
 };
 

@@ -22,6 +22,7 @@ std::string MpiJob::agree(const std::string& error, int) { return error; }
 RenderResult MpiJob::render(const Scene& scene, const RenderRequest& request) { return luz::render(scene, request); }
 int MpiJob::work(const Scene*, int, const std::atomic<bool>*, const std::string&) { return 0; }
 void MpiJob::broadcast(std::string&) {}
+void MpiJob::end_frame(int) {}
 int MpiJob::finish(int status, const std::string&) { return status; }
 
 }  // namespace luz
