@@ -102,6 +102,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// Blocks per worker below which units take at most an eighth of the samples.
+constexpr uint64_t kFewBlocksPerWorker = 8;
+
 // This process's CPU device on a thread of its own, one unit at a time.
 class LocalWorker {
  public:
@@ -267,11 +270,14 @@ RenderResult render_units(const Scene& scene, const RenderRequest& req, RemoteWo
     for (int w = local ? 0 : 1; !stopping && w <= nremote; ++w) {
       if (busy[size_t(w)] || (w > 0 && !remote->available(w - 1))) continue;
       WorkUnit u;
-      // A quarter of a second of the worker's threads, and no more than an
-      // eighth of the samples, so that every block advances in steps.
+      // A quarter of a second of the worker's threads: long beside what a
+      // unit costs to send, receive and place. Where blocks are few beside
+      // the workers, no more than an eighth of the samples, so that the last
+      // units are short and every block advances in steps.
       const uint64_t block_px = uint64_t(sched.block_size()) * uint64_t(sched.block_size());
-      const uint64_t samples = std::min(kPassSamplesPerThread * uint64_t(std::max(threads_of(w), 1)),
-                                        block_px * std::max<uint64_t>((end - first + 7) / 8, 1));
+      uint64_t samples = kPassSamplesPerThread * uint64_t(std::max(threads_of(w), 1));
+      if (sched.blocks() < kFewBlocksPerWorker * uint64_t(nremote + 1))
+        samples = std::min(samples, block_px * std::max<uint64_t>((end - first + 7) / 8, 1));
       if (!sched.take(samples, u)) break;
       busy[size_t(w)] = true;
       Film in = res.film.crop(u.rect);
