@@ -277,6 +277,33 @@ int as_tungsten_rough_plastic(Scene& s) {
   return n;
 }
 
+// Tungsten's decoding of 8-bit textures: a gamma of 2.2 through an 8-bit
+// table, floor(255 (k/255)^2.2) / 255 (ImageIO's GammaCorrection), where Luz
+// decodes sRGB: 1.2% brighter at k = 200, 14% darker at k = 50.
+void as_tungsten_textures(Scene& s) {
+  ASSERT_EQ(s.srgb_table.size(), 256u);
+  for (int k = 0; k < 256; ++k) s.srgb_table[k] = float(std::floor(255.0 * std::pow(k / 255.0, 2.2)) / 255.0);
+}
+
+// The staircase's aluminium and steel as Mitsuba's file has them: their
+// specular_reflectance 0.578596, which pbrt-v4's conductor cannot say (the
+// pbrt-v4 file's are unscaled); found by their eta.
+void staircase_metals_as_mitsuba(Scene& s) {
+  int n = 0;
+  for (Material& m : s.materials) {
+    Color* eta = m.bsdf.type == BsdfType::RoughConductor    ? &m.bsdf.rough_conductor.eta
+                 : m.bsdf.type == BsdfType::SmoothConductor ? &m.bsdf.smooth_conductor.eta
+                                                             : nullptr;
+    if (!eta || std::fabs(eta->x - 1.65746f) > 1e-5f) continue;
+    Color& r = m.bsdf.type == BsdfType::RoughConductor ? m.bsdf.rough_conductor.specular_reflectance
+                                                       : m.bsdf.smooth_conductor.specular_reflectance;
+    EXPECT_TRUE(same(r, {1, 1, 1}));
+    r = r * 0.578596f;
+    ++n;
+  }
+  EXPECT_EQ(n, 2);  // BrushedAluminium, StainlessSteel
+}
+
 }  // namespace
 
 // ---- against Tungsten ----
@@ -415,34 +442,45 @@ TEST(ReferenceScenes, MaterialTestballPbrtMatchesTungsten) {
   testball_matches_tungsten(s, [](const Bsdf& m) { return m.type == BsdfType::RoughPlastic; }, "testball pbrt-v4");
 }
 
-// The staircase against Tungsten does not pass, in either format, and is
-// disabled (run it with --gtest_also_run_disabled_tests). Its wood and
-// paints are Tungsten rough_plastic, which Luz's roughplastic (Mitsuba 3's)
-// does not match: Tungsten sees the diffuse base through the smooth
-// interface's Fresnel terms and returns light to it by the smooth internal
-// diffuse reflectance (0.596 inside an index 1.5), where Luz tabulates the
-// rough coat's (R_int 0.560 for GGX α 0.1, 0.495 for 0.2); the nonlinear
-// base 1 / (1 - ρ R_int) is then brighter in Tungsten, most in red (the
-// wood). Measured at 90×160, 64 spp, blocks of 10×10, tol 0, Mitsuba file
-// (pbrt-v4 file): as loaded, image mean -3.6% (-3.5%) red, -1.9% (-1.7%)
-// green, -0.5% (-0.3%) blue, 33 (35) blocks and means over, worst -8.2% red
-// (z 10.7) on the stairs; with Tungsten's diffuse terms
-// (as_tungsten_rough_plastic, applied here) -1.1% (-0.9%), -0.6% (-0.4%),
-// +0.6% (+0.9%), 3 (3) over, worst z 5.7 (5.2), mean z² 2.6 (2.5): a
-// residual not yet explained, so no tolerance is claimed. The two formats
-// agree with each other (CrossFormat.StaircasePbrtPlyMatchesMitsubaObj).
-void staircase_matches_tungsten(const std::string& file, const char* label) {
-  Scene s = load(file, 90, 160, 64, 15);
+// The staircase against Tungsten: disabled, one block is off in both formats
+// (it fails the pbrt-v4 file's comparison at these settings, the Mitsuba
+// file's at 256 spp or other seeds; run them with
+// --gtest_also_run_disabled_tests). Tungsten's wood and paints
+// are its rough_plastic, which Luz's roughplastic (Mitsuba 3's) does not
+// match: Tungsten sees the diffuse base through the smooth interface's
+// Fresnel terms and returns light to it by the smooth internal diffuse
+// reflectance (0.596 inside an index 1.5), where Luz tabulates the rough
+// coat's (R_int 0.560 for GGX α 0.1, 0.495 for 0.2), so Tungsten's nonlinear
+// base 1 / (1 - ρ R_int) is brighter, most for the red of the wood. And
+// Tungsten decodes the JPEG textures by a 2.2 gamma table, not sRGB. Both are
+// given to the loaded scene (as_tungsten_rough_plastic, as_tungsten_textures),
+// then tol 0. Measured at 90×160, 64 spp, Mitsuba file (pbrt-v4 file): as
+// loaded, image mean -3.6% (-3.5%) red, -1.9% (-1.7%) green, -0.5% (-0.3%)
+// blue, 33 (35) blocks and means over, the worst -8.2% red (z 10.7) on the
+// stairs; with Tungsten's rough_plastic only, -1.1% (-0.9%) red, 3 (3) over;
+// with both, image means within 0.4% and one block left: (3,10), under the
+// table's front, Luz -15% green and -21% blue at 256 spp (z 8.4, 11.0), the
+// same in both formats and for every seed tried; every other block within
+// noise (mean z² 1.5 at 256 spp). Not explained yet, so no tolerance and no
+// exclusion is claimed for it. The pbrt-v4 file's metals are given their
+// reflectance scale too (staircase_metals_as_mitsuba); its aluminium's bump
+// map, which Luz does not render from pbrt, stays off.
+void staircase_matches_tungsten(const std::string& file, bool pbrt, const char* label) {
+  Scene s = load(file, 90, 160, 64, pbrt ? 19 : 18);
+  EXPECT_EQ(s.num_triangles(), 262663u);  // SOURCES.md's count
+  EXPECT_EQ(s.settings.integrator.max_depth, pbrt ? 66 : 65);
+  if (pbrt) staircase_metals_as_mitsuba(s);
   EXPECT_EQ(as_tungsten_rough_plastic(s), 6);
+  as_tungsten_textures(s);
   Film f = render(s, label);
   EXPECT_EQ(compare(luz_blocks(f, 10), reference_blocks("staircase", 90, 160, 10), {}, label), 0);
 }
 
 TEST(ReferenceScenes, DISABLED_StaircaseMitsubaMatchesTungsten) {
-  staircase_matches_tungsten("staircase/mitsuba/scene.xml", "staircase mitsuba / tungsten");
+  staircase_matches_tungsten("staircase/mitsuba/scene.xml", false, "staircase mitsuba / tungsten");
 }
 TEST(ReferenceScenes, DISABLED_StaircasePbrtMatchesTungsten) {
-  staircase_matches_tungsten("staircase/pbrt-v4/scene-v4.pbrt", "staircase pbrt-v4 / tungsten");
+  staircase_matches_tungsten("staircase/pbrt-v4/scene-v4.pbrt", true, "staircase pbrt-v4 / tungsten");
 }
 
 // ---- across formats ----
@@ -467,29 +505,6 @@ TEST(CrossFormat, CornellBoxPbrtMatchesMitsuba) {
   Scene m = load("cornell-box-bitterli/mitsuba3/scene_v3.xml", 64, 64, 256, 22);
   same_image(p, m, 4, {}, "cornell-box pbrt-v4 / mitsuba3");
 }
-
-namespace {
-
-// The staircase's aluminium and steel as Mitsuba's file has them: their
-// specular_reflectance 0.578596, which pbrt-v4's conductor cannot say (the
-// pbrt-v4 file's are unscaled); found by their eta.
-void staircase_metals_as_mitsuba(Scene& s) {
-  int n = 0;
-  for (Material& m : s.materials) {
-    Color* eta = m.bsdf.type == BsdfType::RoughConductor    ? &m.bsdf.rough_conductor.eta
-                 : m.bsdf.type == BsdfType::SmoothConductor ? &m.bsdf.smooth_conductor.eta
-                                                             : nullptr;
-    if (!eta || std::fabs(eta->x - 1.65746f) > 1e-5f) continue;
-    Color& r = m.bsdf.type == BsdfType::RoughConductor ? m.bsdf.rough_conductor.specular_reflectance
-                                                       : m.bsdf.smooth_conductor.specular_reflectance;
-    EXPECT_TRUE(same(r, {1, 1, 1}));
-    r = r * 0.578596f;
-    ++n;
-  }
-  EXPECT_EQ(n, 2);  // BrushedAluminium, StainlessSteel
-}
-
-}  // namespace
 
 // pbrt-v4 with 774 PLY meshes against Mitsuba 0.5 with the same 774 OBJs:
 // coateddiffuse against roughplastic (the pbrt reader's mapping), the .tga
