@@ -1,6 +1,6 @@
-// Scenes in library tests: rendering one on the CPU with no sample lost, and
-// bad ones, whose loading must throw one InputError naming the file and the
-// problem.
+// Scenes in library tests: rendering one on the CPU with no sample lost, a
+// loader's warnings, and bad ones, whose loading must throw one InputError
+// naming the file and the problem.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -20,6 +20,13 @@ inline luz::Film render_finite(const luz::Scene& s, int threads = 2) {
   luz::Film f = luz::render_cpu(s, opt, stats);
   EXPECT_EQ(stats.discarded, 0u) << "non-finite samples";
   return f;
+}
+
+// Whether a warning of the loader contains `text`.
+inline bool has_warning(const luz::Scene& s, const std::string& text) {
+  for (const std::string& w : s.warnings)
+    if (w.find(text) != std::string::npos) return true;
+  return false;
 }
 
 inline void expect_load_refused(const std::string& path, const std::string& file, const std::string& problem) {

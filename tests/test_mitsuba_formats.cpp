@@ -354,16 +354,11 @@ luz::Scene load_shared(const std::string& file, const std::vector<std::string>& 
   s.settings.spp = 2;
   return s;
 }
-bool has_warning(const luz::Scene& s, const std::string& text) {
-  for (const std::string& w : s.warnings)
-    if (w.find(text) != std::string::npos) return true;
-  return false;
-}
 
 TEST(SharedMitsubaScenes, Sponza) {
   luz::Scene s = load_shared("sponza-dabrovic-mitsuba/sponza.xml");
   EXPECT_EQ(s.indices.size() / 3, 66445u);  // SOURCES.md's count
-  EXPECT_TRUE(has_warning(s, "integrator 'irrcache' is not supported"));
+  EXPECT_TRUE(luz_test::has_warning(s, "integrator 'irrcache' is not supported"));
   luz_test::render_finite(s);
 }
 TEST(SharedMitsubaScenes, VeachMi) {
@@ -374,7 +369,7 @@ TEST(SharedMitsubaScenes, VeachMi) {
 }
 TEST(SharedMitsubaScenes, VeachMis) {
   luz::Scene s = load_shared("veach-mis-bitterli/mitsuba3/scene.xml");
-  EXPECT_TRUE(has_warning(s, "integrator 'path_guiding_integrator' is not supported: rendered with path (max_depth 3)"));
+  EXPECT_TRUE(luz_test::has_warning(s, "integrator 'path_guiding_integrator' is not supported: rendered with path (max_depth 3)"));
   luz_test::render_finite(s);
 }
 TEST(SharedMitsubaScenes, MaterialTestball) {
@@ -382,7 +377,7 @@ TEST(SharedMitsubaScenes, MaterialTestball) {
   // folder as a search path (-a), the PLY meshes of the same names stand in.
   luz::Scene s = load_shared("material-testball/mitsuba/scene.xml", {kScenes + "material-testball/pbrt-v4"});
   EXPECT_EQ(s.indices.size() / 3, 80770u);
-  EXPECT_TRUE(has_warning(s, "'models/Mesh002.obj' is missing: read"));
+  EXPECT_TRUE(luz_test::has_warning(s, "'models/Mesh002.obj' is missing: read"));
   luz_test::render_finite(s);
   luz_test::expect_load_refused(kScenes + "material-testball/mitsuba/scene.xml", "scene.xml", "no such file");
 }
