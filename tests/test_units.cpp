@@ -8,11 +8,13 @@
 //    remote workers finishing units in a shuffled order (some units lost
 //    and handed out again), with and without this process working too.
 //  * A render stopped midway leaves per-pixel progress (Film::next); render()
-//    continues it to the very film of an uninterrupted render.
+//    continues it to the very film of an uninterrupted render. A time limit
+//    keeps the whole units done.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
 #include <atomic>
+#include <chrono>
 #include <deque>
 #include <map>
 #include <random>
@@ -226,6 +228,34 @@ TEST(RenderUnits, StoppedMidwayContinuesToTheSameFilm) {
   EXPECT_TRUE(resumed.complete);
   EXPECT_TRUE(resumed.film.next.empty());
   expect_same_film(resumed.film, whole.film, "stopped after 5 units, continued by render()");
+}
+
+}  // namespace
+
+namespace {
+
+// A time limit stops handing out units; the units out are waited for and
+// kept (this process's is abandoned at once): the film holds exactly the
+// samples its per-pixel progress says.
+TEST(RenderUnits, TimeLimitKeepsWholeUnits) {
+  const Scene s = box(32, 20000);
+  RenderRequest req;
+  req.threads = 1;
+  req.time_limit = 0.3;
+  ShuffledWorkers two(s, 2);
+  const auto start = std::chrono::steady_clock::now();
+  const RenderResult r = render_units(s, req, &two, 8);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_FALSE(r.complete);
+  EXPECT_LT(seconds, 5.0);
+  ASSERT_EQ(r.film.next.size(), 32u * 32u);
+  uint64_t held = 0;
+  for (size_t i = 0; i < r.film.next.size(); ++i) {
+    held += r.film.next[i];
+    EXPECT_LE(r.film.count[i], r.film.next[i]);
+  }
+  EXPECT_EQ(held, r.stats.samples);
+  EXPECT_GT(held, 0u);
 }
 
 }  // namespace
