@@ -6,6 +6,7 @@
 // DamagedHelmet (glTF, normal maps). Damaged bytes are refused.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <stdexcept>
 
@@ -27,6 +28,7 @@ void expect_round_trip(const std::string& path, const Defines& defines, bool ins
   s.set_resolution(24, 24);
   s.settings.spp = 2;
   const std::string bytes = serialize_scene(s);
+  std::printf("%s: %.1f MB serialized\n", path.c_str(), double(bytes.size()) * 1e-6);  // what --broadcast sends
   const Scene t = deserialize_scene(bytes);
   EXPECT_EQ(render_fields(t, RenderDevice::Cpu), render_fields(s, RenderDevice::Cpu)) << path;
   EXPECT_EQ(t.warnings, s.warnings);
