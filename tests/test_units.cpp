@@ -117,11 +117,16 @@ TEST(UnitScheduler, FurthestBehindFirstAndPerPixelProgress) {
   EXPECT_THROW(UnitScheduler(32, 16, 16, 5, finer, 10), std::invalid_argument);  // a pixel behind `first`
 }
 
-TEST(UnitScheduler, BlockSizeGivesEveryWorkerBlocks) {
+TEST(UnitScheduler, BlockSizeGivesEveryWorkerBlocksAndUnitsTheirSamples) {
   EXPECT_EQ(block_size_for(256, 256, 4), 16);
   EXPECT_EQ(block_size_for(16, 16, 4), 4);
   EXPECT_EQ(block_size_for(16, 16, 1000), 1);
   EXPECT_EQ(block_size_for(3, 1, 2), 1);
+  // Few samples on many-thread ranks: larger blocks, while enough remain.
+  EXPECT_EQ(block_size_for(3840, 2160, 64, 4096, (uint64_t(1) << 18) * 16), 32);
+  EXPECT_EQ(block_size_for(3840, 2160, 64, 64, (uint64_t(1) << 18) * 16), 64);
+  EXPECT_EQ(block_size_for(3840, 2160, 1000, 64, (uint64_t(1) << 18) * 16), 16);  // 32² would leave 8 blocks a rank
+  EXPECT_EQ(block_size_for(256, 256, 2, 64, (uint64_t(1) << 18) * 2), 32);
 }
 
 // Remote workers simulated in this process: units queue up and finish in a

@@ -263,7 +263,12 @@ RenderResult MpiJob::render(const Scene& scene, const RenderRequest& req) {
   if (j.rank != 0) throw std::logic_error("MpiJob::render on a rank other than 0");
   RemoteRanks remote(j);
   const Camera& cam = scene.camera;
-  return render_units(scene, req, &remote, block_size_for(cam.width, cam.height, j.size, kUnitBlock));
+  // Units of a quarter second of the ranks' threads (render_units), on average.
+  uint64_t threads = 0;
+  for (int t : j.threads) threads += uint64_t(std::max(t, 1));
+  const uint32_t spp = req.end_sample.value_or(scene.settings.spp) - req.first_sample;
+  return render_units(scene, req, &remote,
+                      block_size_for(cam.width, cam.height, j.size, spp, kPassSamplesPerThread * threads / uint64_t(j.size)));
 }
 
 void MpiJob::broadcast(std::string& bytes) {

@@ -87,14 +87,20 @@ std::vector<uint32_t> UnitScheduler::pixel_next() const {
   return px;
 }
 
-int block_size_for(int width, int height, int workers, int size) {
-  // Blocks per worker below which the last units leave workers idle.
-  constexpr int kBlocksPerWorker = 4;
-  while (size > 1) {
-    const uint64_t blocks = uint64_t((width + size - 1) / size) * uint64_t((height + size - 1) / size);
-    if (blocks >= uint64_t(kBlocksPerWorker) * uint64_t(std::max(workers, 1))) break;
-    size /= 2;
-  }
+int block_size_for(int width, int height, int workers, uint32_t spp, uint64_t unit_samples) {
+  // Blocks per worker below which the last units leave workers idle, and
+  // below which blocks do not grow (the frame's end waits up to a unit).
+  constexpr uint64_t kBlocksPerWorker = 4, kGrowBlocksPerWorker = 16;
+  constexpr int kMaxBlock = 64;
+  const uint64_t enough = kBlocksPerWorker * uint64_t(std::max(workers, 1));
+  const uint64_t plenty = kGrowBlocksPerWorker * uint64_t(std::max(workers, 1));
+  auto blocks = [&](int size) { return uint64_t((width + size - 1) / size) * uint64_t((height + size - 1) / size); };
+  int size = kUnitBlock;
+  // Larger while a whole block's samples are short of a unit and the blocks
+  // stay many: each unit's fixed cost to rank 0 then buys more samples.
+  while (size < kMaxBlock && uint64_t(size) * uint64_t(size) * spp < unit_samples && blocks(2 * size) >= plenty)
+    size *= 2;
+  while (size > 1 && blocks(size) < enough) size /= 2;
   return size;
 }
 

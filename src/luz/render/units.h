@@ -68,9 +68,11 @@ class UnitScheduler {
   int out_ = 0;
 };
 
-// The largest power-of-two block size, at most `size`, that gives each of
-// `workers` at least a few blocks (a small image on many ranks).
-int block_size_for(int width, int height, int workers, int size = 16);
+// A power-of-two block size: kUnitBlock, doubled (up to 64) while a whole
+// block's `spp` samples are fewer than a unit's `unit_samples` (many-thread
+// ranks, few samples) and every worker keeps 16 blocks, halved while the
+// workers would have fewer than 4 blocks each (a small image on many ranks).
+int block_size_for(int width, int height, int workers, uint32_t spp = 0, uint64_t unit_samples = 0);
 
 // A finished (or abandoned) unit.
 struct UnitResult {
