@@ -440,11 +440,31 @@ TEST(ReferenceScenes, MaterialTestballPbrtMatchesTungsten) {
 // at 256 spp (z 8.4, 11.0), the same in both formats and every seed tried.
 // Its neighbours under the stairs are heavy-tailed (caustics through the
 // chandelier's glass, as test_textures.cpp notes): at 45×80 with blocks of
-// 5, (4,9) is -29% at 256 spp and +6% at 2048; but (3,10) stays -13% green,
-// -17% blue at 2048 spp (σ 1.2%). Not explained, so no tolerance and no
-// exclusion is claimed for it. The pbrt-v4 file's metals are given their
-// reflectance scale too (staircase_metals_as_mitsuba); its aluminium's bump
-// map, which Luz does not render from pbrt, stays off.
+// 5, (4,9) is -29% at 256 spp and +6% at 2048; but (3,10) stays -14% green,
+// -17% blue (16384 spp). Not noise, and not a model of Luz's: it is one
+// highlight on the block's top edge. The table's gold trim (a smooth
+// conductor) mirrors the ceiling light in a band about 0.3 reference pixels
+// tall at reference row 799.5, the last row of (3,9), and
+//   - Tungsten's pixel filter is a tent of radius one reference pixel
+//     (ReconstructionFilter's default, "tent", width 1; the Mitsuba file's
+//     rfilter is tent too), which carries part of the band into row 800, the
+//     first of (3,10), where Luz's box pixels, eight reference pixels wide,
+//     cannot. Rendered by Luz at the reference's resolution with the tent,
+//     (3,10) is -5% green, -6% blue, all of it in row 800: rows 801-879 agree
+//     within 0.3%.
+//   - The band itself differs: Tungsten's is 15-17% dimmer over rows 797-801
+//     and spread more into rows 798 and 800 (green over the block's width:
+//     0.21, 1.66, 0.40 against Luz's 0.17, 2.28, 0.30 with the tent), while
+//     the chandelier's highlights of the same light match pixel for pixel.
+//     The reflected rays sweep ~20° across the band (2 mm of trim), whose
+//     edges are where the staircase's underside and the chandelier's arms
+//     cut them off the light; a fraction of a millimetre moves them. Not
+//     settled: no Tungsten scene file is at hand. (3,9) has the other side,
+//     Luz +15% green (4096 spp, σ 2.2%), within noise at these settings.
+// The comparison cannot allow for either without rendering at the
+// reference's resolution, so the tests stay disabled. The pbrt-v4 file's
+// metals are given their reflectance scale too (staircase_metals_as_mitsuba);
+// its aluminium's bump map, which Luz does not render from pbrt, stays off.
 void staircase_matches_tungsten(const std::string& file, bool pbrt, const char* label) {
   Scene s = load(file, 90, 160, 64, pbrt ? 19 : 18);
   EXPECT_EQ(s.num_triangles(), 262663u);  // SOURCES.md's count
