@@ -313,6 +313,37 @@ TEST_F(GltfFiles, ModesIndicesTransformsCameraLights) {
 // alphaMode MASK with a constant alpha: opacity 0 below the cutoff, 1 at or
 // above; BLEND: the alpha itself. doubleSided, KHR_materials_ior,
 // emissive strength.
+// Several cameras: the first in traversal order, or one by its camera's or
+// its node's name (luz render --camera); an unknown name lists the file's.
+TEST_F(GltfFiles, CameraByName) {
+  const std::string json =
+      views() + ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5}]}],"
+      "\"nodes\":[{\"mesh\":0},{\"camera\":0,\"translation\":[0,0,10]},"
+      "{\"name\":\"side\",\"camera\":1,\"translation\":[0,0,20]},{\"camera\":2,\"translation\":[0,0,30]}],"
+      "\"scenes\":[{\"nodes\":[0,1,2,3]}],\"scene\":0,\"cameras\":["
+      "{\"name\":\"front\",\"type\":\"perspective\",\"perspective\":{\"yfov\":0.5,\"znear\":0.1}},"
+      "{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.5,\"znear\":0.1}},"
+      "{\"name\":\"far\",\"type\":\"perspective\",\"perspective\":{\"yfov\":0.5,\"znear\":0.1}}]";
+  const std::string path = gltf("cameras.gltf", quad_bin(), json);
+  EXPECT_EQ(load_scene(path).camera.origin.z, 10.f);
+  EXPECT_EQ(load_scene(path, {}, {}, "front").camera.origin.z, 10.f);
+  EXPECT_EQ(load_scene(path, {}, {}, "side").camera.origin.z, 20.f);  // the node's name
+  EXPECT_EQ(load_scene(path, {}, {}, "far").camera.origin.z, 30.f);
+  auto refusal = [](const std::string& file, const std::string& camera) -> std::string {
+    try {
+      load_scene(file, {}, {}, camera);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "accepted";
+  };
+  EXPECT_NE(refusal(path, "top").find("cameras.gltf: cameras: no camera named 'top' (the file has 'front', 'side', 'far')"),
+            std::string::npos)
+      << refusal(path, "top");
+  EXPECT_NE(refusal(LUZ_SOURCE_DIR "/scenes/cornell-box.xml", "front").find("--camera front: only glTF files name their cameras"),
+            std::string::npos);
+}
+
 TEST_F(GltfFiles, MaterialProperties) {
   const std::string json =
       views() +

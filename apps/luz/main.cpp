@@ -99,6 +99,7 @@ struct RenderOptions {
   double checkpoint_every = -1;  // < 0: the default
   bool quiet = false;
   bool broadcast = false;  // an MPI render: rank 0 loads the scene and sends it
+  std::string camera;      // a glTF camera by name
   std::vector<std::string> aovs;  // albedo, normal, depth, variance
 
   // Name/value pairs, flattened; only what a resume asks again (not the
@@ -125,6 +126,7 @@ struct RenderOptions {
     put("scale", exact(scale));
     for (const std::string& d : defines) put("define", d);
     for (const std::string& d : search) put("search", abs(d));
+    put("camera", camera);
     put("checkpoint", abs(checkpoint));
     put("checkpoint-every", exact(checkpoint_every));
     for (const std::string& v : aovs) put("aov", v);
@@ -156,6 +158,7 @@ struct RenderOptions {
       else if (k == "scale") num(k, v, o.scale);
       else if (k == "define") o.defines.push_back(v);
       else if (k == "search") o.search.push_back(v);
+      else if (k == "camera") o.camera = v;
       else if (k == "checkpoint") o.checkpoint = v;
       else if (k == "checkpoint-every") num(k, v, o.checkpoint_every);
       else if (k == "aov") o.aovs.push_back(v);
@@ -419,6 +422,7 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
     keep("-a", o.search, was.search);
     keep("--checkpoint-every", o.checkpoint_every, was.checkpoint_every);
     keep("--aov", o.aovs, was.aovs);
+    keep("--camera", o.camera, was.camera);
     if (!given.count("--checkpoint")) o.checkpoint = resume;  // the same file goes on
   }
   if (o.scene.empty()) throw luz::InputError("no scene given (luz render SCENE, or luz render --resume CHECKPOINT)");
@@ -458,7 +462,7 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
 
   check_scene_file(o.scene);
   const auto load_start = std::chrono::steady_clock::now();
-  luz::Scene scene = luz::load_scene(o.scene, defines, o.search);
+  luz::Scene scene = luz::load_scene(o.scene, defines, o.search, o.camera);
   const double load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
   resize(scene, o);
   luz::RenderSettings& s = scene.settings;
@@ -724,6 +728,7 @@ int run(int argc, char** argv, luz::MpiJob* job) {
                  "Open Image Denoise expects), depth (along the view axis), variance (of each pixel's mean)")
       ->delimiter(',')
       ->check(CLI::IsMember({"albedo", "normal", "depth", "variance"}));
+  rc->add_option("--camera", o.camera, "the camera to render, by name (glTF files name theirs; default: the first)");
   rc->add_flag("--broadcast", o.broadcast,
               "under mpirun: rank 0 loads the scene and sends it to the other ranks (for files only its machine has)");
   rc->add_flag("-q,--quiet", o.quiet, "no progress bar and no stats lines (warnings and errors still print)");
@@ -732,6 +737,8 @@ int run(int argc, char** argv, luz::MpiJob* job) {
   std::vector<std::string> info_defines;
   ic->add_option("scene", info_scene, "scene file (.xml, .pbrt, .gltf, .glb, .obj or .ply)")->required();
   ic->add_option("-D", info_defines, "override a scene <default>: name=value")->allow_extra_args(false);
+  std::string info_camera;
+  ic->add_option("--camera", info_camera, "the camera to describe, by name (glTF)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -746,7 +753,7 @@ int run(int argc, char** argv, luz::MpiJob* job) {
     if (ic->parsed()) {
       check_scene_file(info_scene);
       const auto start = std::chrono::steady_clock::now();
-      const luz::Scene s = luz::load_scene(info_scene, parse_defines(info_defines));
+      const luz::Scene s = luz::load_scene(info_scene, parse_defines(info_defines), {}, info_camera);
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
       std::printf("scene: %s (loaded in %.3f s)\n%s", info_scene.c_str(), seconds, luz::describe_scene(s).c_str());
       return 0;
@@ -754,7 +761,7 @@ int run(int argc, char** argv, luz::MpiJob* job) {
     std::set<std::string> given;
     for (const char* flag : {"scene", "-o", "--spp", "--seed", "--max-depth", "--sampler", "--integrator",
                              "--light-sampler", "--device", "--res", "--scale", "-D", "-a", "--checkpoint",
-                             "--checkpoint-every", "--aov"})
+                             "--checkpoint-every", "--aov", "--camera"})
       if (rc->get_option(flag)->count() > 0) given.insert(flag);
     if (!resume.empty() && given.count("scene"))
       throw luz::InputError("--resume " + resume + ": the checkpoint names its scene; give no scene file with it");

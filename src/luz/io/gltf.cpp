@@ -44,7 +44,8 @@
 //    smooth in cosine); `range` is ignored (no cut-off).
 //  - No light at all (no emission, no punctual light): a uniform white
 //    environment of radiance 1 with a warning, as for OBJ and PLY files.
-//  - Camera: the first node with a camera in traversal order (perspective:
+//  - Camera: the first node with a camera in traversal order, or the one
+//    whose camera or node has the name asked (luz render --camera NAME) (perspective:
 //    yfov, aspectRatio; orthographic: xmag, ymag); none: the bounds framed
 //    as for an OBJ. The film is 512 pixels high (wide by the aspect ratio).
 //  - Images: 8 or 16 bits per channel (16 reduced to 8), RGBA.
@@ -120,13 +121,22 @@ bool decode_image(tinygltf::Image* image, int index, std::string* err, std::stri
 
 class GltfLoader {
  public:
-  explicit GltfLoader(const std::string& path) : path_(path), builder_(path) {}
+  GltfLoader(const std::string& path, const std::string& camera) : path_(path), camera_(camera), builder_(path) {}
 
   Scene load() {
     read_model();
     check_extensions();
     const std::vector<int> roots = root_nodes();
     walk(roots);
+    if (!camera_.empty() && !builder_.has_camera()) {
+      std::string names;
+      for (const tinygltf::Node& n : model_.nodes)
+        if (n.camera >= 0 && size_t(n.camera) < model_.cameras.size()) {
+          const std::string& c = model_.cameras[size_t(n.camera)].name;
+          names += (names.empty() ? "" : ", ") + ("'" + (c.empty() ? n.name : c) + "'");
+        }
+      fail("cameras", "no camera named '" + camera_ + "' (" + (names.empty() ? "the file has none" : "the file has " + names) + ")");
+    }
     // Area lights come first in Scene::lights (add_mesh numbers them), then the others.
     for (const Light& l : punctual_) builder_.add_light(at_, l);
     if (builder_.scene().lights.empty()) {  // as for mesh files (mesh_scene.cpp): the model shows
@@ -143,6 +153,7 @@ class GltfLoader {
 
  private:
   const std::string path_;
+  const std::string camera_;  // the name asked, or "": the first camera
   const SourceLoc at_{path_, 0};  // glTF has no useful line numbers: messages name the object instead
   tinygltf::Model model_;
   SceneBuilder builder_;
@@ -303,7 +314,7 @@ class GltfLoader {
       const std::string where = at("nodes", size_t(i));
       const Matrix4 world = parent * local_transform(n, where);
       if (n.mesh >= 0) add_mesh(n.mesh, world);
-      if (n.camera >= 0 && !builder_.has_camera()) set_camera(n.camera, world, where);
+      if (n.camera >= 0 && !builder_.has_camera() && wanted(n)) set_camera(n.camera, world, where);
       auto l = n.extensions.find("KHR_lights_punctual");
       if (l != n.extensions.end() && l->second.Has("light")) add_light(l->second.Get("light"), world, where);
       for (auto c = n.children.rbegin(); c != n.children.rend(); ++c) stack.push_back({*c, world});
@@ -820,6 +831,13 @@ class GltfLoader {
   }
 
   // ---- camera and lights ----
+  // The camera asked for: by the camera's name or its node's.
+  bool wanted(const tinygltf::Node& n) const {
+    if (camera_.empty()) return true;
+    return n.name == camera_ ||
+           (size_t(n.camera) < model_.cameras.size() && model_.cameras[size_t(n.camera)].name == camera_);
+  }
+
   void set_camera(int index, const Matrix4& world, const std::string& where) {
     if (size_t(index) >= model_.cameras.size()) fail(where, "no camera " + std::to_string(index));
     const tinygltf::Camera& c = model_.cameras[size_t(index)];
@@ -911,9 +929,9 @@ class GltfLoader {
 
 }  // namespace
 
-Scene load_gltf(const std::string& path) {
+Scene load_gltf(const std::string& path, const std::string& camera) {
   try {
-    return GltfLoader(path).load();
+    return GltfLoader(path, camera).load();
   } catch (const InputError&) {
     throw;
   } catch (const std::exception& e) {  // tinygltf's JSON errors, texel-array limits

@@ -10,6 +10,6 @@
 
 namespace luz {
 
-Scene load_gltf(const std::string& path);
+Scene load_gltf(const std::string& path, const std::string& camera = "");
 
 }  // namespace luz
