@@ -5,7 +5,8 @@
 //       [--profile | --compare IMAGE]
 //
 // Each variant (a sampler; LIST is comma-separated from scene, independent,
-// stratified, sobol; `scene` is the one the scene file names) is rendered R
+// stratified, sobol; `scene` is the one the scene file names; a suffix /rrN
+// sets Russian roulette's first depth, as sobol/rr2) is rendered R
 // times, the variants interleaved round by round so that they share the
 // machine's changing speed (round k renders with seed K + k + 1). For each: render seconds, relMSE against a
 // converged reference, efficiency = 1 / (relMSE × seconds). The reference
@@ -318,24 +319,31 @@ int main(int argc, char** argv) {
     struct Variant {
       std::string name;
       SamplerType sampler;
+      int rr_depth;
       std::vector<double> seconds, rel;
     };
     std::vector<Variant> variants;
     for (size_t at = 0; at <= a.samplers.size();) {
       const size_t comma = std::min(a.samplers.find(',', at), a.samplers.size());
-      const std::string v = a.samplers.substr(at, comma - at);
+      const std::string item = a.samplers.substr(at, comma - at);
       at = comma + 1;
+      const size_t slash = item.find("/rr");
+      const std::string v = item.substr(0, slash);
+      int rr = base.settings.integrator.rr_depth;
       SamplerType t = own;
-      if (v != "scene" && !parse_sampler(v, t)) {
-        std::fprintf(stderr, "efficiency_bench: --samplers: unknown sampler '%s'\n", v.c_str());
+      if ((v != "scene" && !parse_sampler(v, t)) || (slash != std::string::npos && (rr = std::atoi(&item[slash + 3])) < 1)) {
+        std::fprintf(stderr, "efficiency_bench: --samplers: unknown variant '%s'\n", item.c_str());
         return 2;
       }
-      variants.push_back({v == "scene" ? std::string("scene's (") + sampler_name(own) + ")" : v, t, {}, {}});
+      std::string name = v == "scene" ? std::string("scene's (") + sampler_name(own) + ")" : v;
+      if (slash != std::string::npos) name += ", rr_depth " + std::to_string(rr);
+      variants.push_back({name, t, rr, {}, {}});
     }
     for (int round = 0; round < a.rounds; ++round)
       for (Variant& v : variants) {
         Scene s = base;
         s.settings.sampler = v.sampler;
+        s.settings.integrator.rr_depth = v.rr_depth;
         s.settings.spp = a.spp;
         s.settings.seed = uint64_t(a.first_round + round) + 1;
         double t = 0;
