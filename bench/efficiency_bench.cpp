@@ -9,7 +9,9 @@
 // sets Russian roulette's first depth, as sobol/rr2) is rendered R
 // times, the variants interleaved round by round so that they share the
 // machine's changing speed (round k renders with seed K + k + 1). For each: render seconds, relMSE against a
-// converged reference, efficiency = 1 / (relMSE × seconds). The reference
+// converged reference, efficiency = 1 / (relMSE × seconds); also the
+// process's CPU seconds (user + system, all threads: less sensitive than the
+// wall clock to other work on a shared machine) and the efficiency by them. The reference
 // (K × spp, independent sampler, another seed) is rendered once and cached
 // outside the repository (reference.h); its own noise is subtracted and
 // printed. Prints one markdown row per variant, starting with '|'.
@@ -24,6 +26,7 @@
 // --compare IMAGE: the relMSE of another renderer's image (bench/cycles)
 // against the same reference. --filter replaces the scene's pixel filter
 // (Cycles has no tent), in the reference too.
+#include <sys/resource.h>
 #include <tbb/blocked_range.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -49,6 +52,12 @@ using namespace luz;
 using namespace luz_bench;
 
 namespace {
+
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return double(u.ru_utime.tv_sec + u.ru_stime.tv_sec) + 1e-6 * double(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
 
 struct Args {
   std::string scene, label, samplers = "scene,sobol", compare, filter;
@@ -320,7 +329,7 @@ int main(int argc, char** argv) {
       std::string name;
       SamplerType sampler;
       int rr_depth;
-      std::vector<double> seconds, rel;
+      std::vector<double> seconds, cpu, rel;
     };
     std::vector<Variant> variants;
     for (size_t at = 0; at <= a.samplers.size();) {
@@ -337,7 +346,7 @@ int main(int argc, char** argv) {
       }
       std::string name = v == "scene" ? std::string("scene's (") + sampler_name(own) + ")" : v;
       if (slash != std::string::npos) name += ", rr_depth " + std::to_string(rr);
-      variants.push_back({name, t, rr, {}, {}});
+      variants.push_back({name, t, rr, {}, {}, {}});
     }
     for (int round = 0; round < a.rounds; ++round)
       for (Variant& v : variants) {
@@ -347,7 +356,9 @@ int main(int argc, char** argv) {
         s.settings.spp = a.spp;
         s.settings.seed = uint64_t(a.first_round + round) + 1;
         double t = 0;
+        const double cpu0 = cpu_seconds();
         const Film f = render(s, a.threads, t);
+        v.cpu.push_back(cpu_seconds() - cpu0);
         v.seconds.push_back(t);
         v.rel.push_back(rel_mse(f, ref.mean) - ref.noise);
       }
@@ -357,13 +368,14 @@ int main(int argc, char** argv) {
       return m / double(x.size());
     };
     const double eff0 = 1.0 / (mean(variants[0].rel) * mean(variants[0].seconds));
+    const double eff0_cpu = 1.0 / (mean(variants[0].rel) * mean(variants[0].cpu));
     for (const Variant& v : variants) {
-      const double t = mean(v.seconds), rel = mean(v.rel), eff = 1.0 / (rel * t);
+      const double t = mean(v.seconds), cpu = mean(v.cpu), rel = mean(v.rel), eff = 1.0 / (rel * t);
       const auto [tmin, tmax] = std::minmax_element(v.seconds.begin(), v.seconds.end());
       const auto [rmin, rmax] = std::minmax_element(v.rel.begin(), v.rel.end());
-      std::printf("| %s | %s | %dx%d | %u | %.2f (%.2f-%.2f) | %.3e (%.2e-%.2e) | %.1f | %.2fx |\n", a.label.c_str(),
-                  v.name.c_str(), base.camera.width, base.camera.height, a.spp, t, *tmin, *tmax, rel, *rmin, *rmax,
-                  eff, eff / eff0);
+      std::printf("| %s | %s | %dx%d | %u | %.2f (%.2f-%.2f) | %.2f | %.3e (%.2e-%.2e) | %.2f / %.3f | %.2fx / %.2fx |\n",
+                  a.label.c_str(), v.name.c_str(), base.camera.width, base.camera.height, a.spp, t, *tmin, *tmax, cpu,
+                  rel, *rmin, *rmax, eff, 1.0 / (rel * cpu), eff / eff0, 1.0 / (rel * cpu) / eff0_cpu);
     }
     return 0;
   } catch (const InputError& e) {
