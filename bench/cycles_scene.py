@@ -41,7 +41,12 @@ def diffuse(name, rgb, emission=None):
         add = nt.nodes.new("ShaderNodeAddShader")
         nt.links.new(shader, add.inputs[0])
         nt.links.new(e.outputs["Emission"], add.inputs[1])
-        shader = add.outputs["Shader"]
+        # One-sided, as Luz's area emitter: the back face only reflects.
+        mix = nt.nodes.new("ShaderNodeMixShader")
+        nt.links.new(nt.nodes.new("ShaderNodeNewGeometry").outputs["Backfacing"], mix.inputs["Fac"])
+        nt.links.new(add.outputs["Shader"], mix.inputs[1])
+        nt.links.new(shader, mix.inputs[2])
+        shader = mix.outputs["Shader"]
     nt.links.new(shader, out_node.inputs["Surface"])
     return m
 
