@@ -64,6 +64,30 @@ struct IntegratorParams {
   int rr_depth = 5;  // Russian roulette from this depth on (Mitsuba's default)
 };
 
+// Counters for bench/efficiency's profile: rays by kind, what became of each
+// next-event sample, Russian roulette and path ends by depth, and radiance by
+// path length. A probe is a type of static hooks (its state its own, e.g.
+// thread-local), so a call passes nothing more. The default, NoPathProbe,
+// compiles every hook away: each call sits under `if constexpr
+// (Probe::kEnabled)`, so a normal render runs the same instructions.
+enum class RayKind : uint32_t { Camera, Continuation, Shadow };
+enum class NeeOutcome : uint32_t {
+  NoSample,      // pdf 0: an emitter facing away, or none to sample
+  BelowSurface,  // the direction is below the geometric surface
+  BsdfZero,      // f = 0 (below the shading hemisphere, for a diffuse BSDF)
+  Occluded,      // the shadow ray hit something
+  Contributed,
+};
+enum class PathEnd : uint32_t { Escaped, MaxDepth, BsdfInvalid, WrongSide, Roulette };
+struct NoPathProbe {
+  static constexpr bool kEnabled = false;
+  static void ray(RayKind) {}
+  static void nee(NeeOutcome) {}
+  static void roulette(int, bool) {}
+  static void end(int, PathEnd) {}
+  static void radiance(int, const Color&) {}
+};
+
 // Sample dimensions: 0: the camera (camera_sample: the filter's 2D, and a
 // lens's 2D as that dimension's second stream). Then, per vertex, a fixed block so
 // that a dimension always means the same thing: light choice and point (2D),
@@ -127,6 +151,8 @@ LUZ_INLINE PathState path_start(const Ray& ray) {
 // when the path ends. The same code runs in path_li and in the wavefront's
 // shade kernel.
 // `u`: this vertex's draw_vertex_random.
+// `Probe`: bench/efficiency's counters (none in a normal render).
+template <class Probe = NoPathProbe>
 LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool found, const Hit& hit, Sampler& sampler,
                                   const IntegratorParams& params, const VertexRandom& u, ShadowQuery& sq) {
   sq.active = false;
@@ -177,8 +203,10 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
         else w = power_heuristic(prev_pdf, light_pdf);
       }
       L += beta * Le * w;
+      if constexpr (Probe::kEnabled) Probe::radiance(depth, beta * Le * w);
     }
     if (!found || (params.max_depth >= 0 && depth >= params.max_depth)) {
+      if constexpr (Probe::kEnabled) Probe::end(depth, found ? PathEnd::MaxDepth : PathEnd::Escaped);
       st.alive = false;
       return;
     }
@@ -221,6 +249,8 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
         // for transmissive ones the geometric and shading sides must agree.
         const float side = dot(ls.wi, n_out);
         const bool geo_ok = transmissive ? (side > 0.f) == (wo.z * wi.z > 0.f) && side != 0.f : side > 0.f;
+        if constexpr (Probe::kEnabled)
+          if (!geo_ok || is_black(f)) Probe::nee(!geo_ok ? NeeOutcome::BelowSurface : NeeOutcome::BsdfZero);
         if (!is_black(f) && geo_ok) {
           Ray shadow;
           shadow.o = side > 0.f ? origin : offset_ray_origin(it.p, -n_out);
@@ -243,6 +273,8 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
           sq.contrib = beta * f * ls.radiance * (fabsf(wi.z) * w_over_pdf);
           sq.active = true;
         }
+      } else if constexpr (Probe::kEnabled) {
+        Probe::nee(NeeOutcome::NoSample);
       }
     }
 
@@ -250,6 +282,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     BsdfSample bs = plain ? bsdf.sample_diffuse(wo, u_bsdf, u.dir)
                           : bsdf.sample_general(wo, u_bsdf, u.dir, TransportMode::Radiance);
     if (!bs.valid) {
+      if constexpr (Probe::kEnabled) Probe::end(depth, PathEnd::BsdfInvalid);
       st.alive = false;
       return;
     }
@@ -258,6 +291,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     // reflection stays on the viewer's side, transmission crosses.
     const float side = dot(wi_world, n_out);
     if (bs.transmission ? !(side < 0.f) : !(side > 0.f)) {
+      if constexpr (Probe::kEnabled) Probe::end(depth, PathEnd::WrongSide);
       st.alive = false;
       return;
     }
@@ -271,7 +305,9 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     // Russian roulette on the throughput without the η² of refraction.
     if (depth >= params.rr_depth) {
       float q = min(max_component(beta) * eta_acc * eta_acc, 0.95f);
+      if constexpr (Probe::kEnabled) Probe::roulette(depth, u.rr < q);
       if (!(u.rr < q)) {
+        if constexpr (Probe::kEnabled) Probe::end(depth, PathEnd::Roulette);
         st.alive = false;
         return;
       }
@@ -289,27 +325,37 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
 // ray needs only the BSDF sample, so the query starts while next-event
 // estimation's longer chain (square roots, divisions, the MIS weight) is
 // still completing (luz_bench, bundled box, 1 thread: paired ratio 0.52 ->
-// 0.55). Returns the radiance; `rays` counts every query.
-template <class Tracer>
+// 0.55). Returns the radiance; `rays` counts every query. `Probe`: as
+// path_vertex's.
+template <class Tracer, class Probe = NoPathProbe>
 LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray ray, Sampler& sampler,
                               const IntegratorParams& params, uint64_t& rays) {
   PathState st = path_start(ray);
   ShadowQuery sq;  // the previous vertex's
+  [[maybe_unused]] int sq_length = 0;  // its path's length (the probe's)
   auto trace_shadow = [&] {
     if (!sq.active) return;
     ++rays;
-    if (!tracer.occluded(sq.ray)) st.L += sq.contrib;
+    const bool blocked = tracer.occluded(sq.ray);
+    if (!blocked) st.L += sq.contrib;
+    if constexpr (Probe::kEnabled) {
+      Probe::ray(RayKind::Shadow);
+      Probe::nee(blocked ? NeeOutcome::Occluded : NeeOutcome::Contributed);
+      if (!blocked) Probe::radiance(sq_length, sq.contrib);
+    }
   };
   while (st.alive) {
     Hit hit;
     ++rays;
+    if constexpr (Probe::kEnabled) Probe::ray(st.depth == 1 ? RayKind::Camera : RayKind::Continuation);
     const VertexRandom u = draw_vertex_random(sampler, st.depth, params);
     bool found = tracer.intersect(st.ray, hit);
     // A textured hit's texels are fetched while the shadow query runs
     // (staircase, 2 threads: 0.523 -> 0.566 Msamples/s; untextured: no change).
     if (found) scene.prefetch_texture(hit);
     trace_shadow();
-    path_vertex(scene, st, found, hit, sampler, params, u, sq);
+    if constexpr (Probe::kEnabled) sq_length = st.depth + 1;
+    path_vertex<Probe>(scene, st, found, hit, sampler, params, u, sq);
   }
   trace_shadow();
   return st.L;
