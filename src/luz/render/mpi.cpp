@@ -22,7 +22,7 @@ bool mpi_built() { return true; }
 
 namespace {
 
-enum Tag : int { kTagUnit = 1, kTagResult, kTagError, kTagStop, kTagAgree };
+enum Tag : int { kTagReady = 1, kTagUnit, kTagResult, kTagError, kTagStop, kTagAgree };
 
 // Between polls of a rank that waits: MPI's blocking calls spin a core,
 // which an oversubscribed node (more ranks than cores) cannot spare.
@@ -261,6 +261,25 @@ std::string MpiJob::agree(const std::string& error, int threads) {
 RenderResult MpiJob::render(const Scene& scene, const RenderRequest& req) {
   Impl& j = *m_;
   if (j.rank != 0) throw std::logic_error("MpiJob::render on a rank other than 0");
+  // The others have built their devices (Embree's BVH): the render's time
+  // starts, as a single process's does, after that. A stop meanwhile
+  // returns the start film as it is.
+  for (int r = 1; r < j.size; ++r)
+    for (;;) {
+      int flag = 0;
+      MPI_Status st;
+      MPI_Iprobe(r, kTagReady, MPI_COMM_WORLD, &flag, &st);
+      if (flag) {
+        receive(st);
+        break;
+      }
+      if (req.cancel && req.cancel->load()) {
+        RenderResult res;
+        res.film = req.start ? *req.start : Film(scene.camera.width, scene.camera.height);
+        return res;
+      }
+      nap();
+    }
   RemoteRanks remote(j);
   const Camera& cam = scene.camera;
   // Units of a quarter second of the ranks' threads (render_units), on average.
@@ -289,7 +308,13 @@ int MpiJob::work(const Scene* scene, int threads, const std::atomic<bool>* cance
   Impl& j = *m_;
   auto cancelled = [&] { return cancel && cancel->load(std::memory_order_relaxed); };
   std::optional<CpuDevice> device;
-  if (scene) device.emplace(*scene, threads);
+  std::string failed = error;
+  try {
+    if (scene) device.emplace(*scene, threads);
+  } catch (const std::exception& e) {
+    failed = e.what();
+  }
+  send(std::vector<char>(), 0, kTagReady);
   for (;;) {
     const MPI_Status st = wait_message(0);
     const std::vector<char> b = receive(st);
@@ -300,7 +325,7 @@ int MpiJob::work(const Scene* scene, int threads, const std::atomic<bool>* cance
     }
     try {
       if (st.MPI_TAG != kTagUnit) throw std::runtime_error("MPI: an unexpected message (tag " + std::to_string(st.MPI_TAG) + ")");
-      if (!device) throw std::runtime_error(error);
+      if (!device) throw std::runtime_error(failed);
       const WorkUnit u = unpack_unit(in);
       const Film start = unpack_film(in, u.rect);
       Film film(u.rect.width(), u.rect.height());

@@ -207,13 +207,6 @@ RenderResult render_units(const Scene& scene, const RenderRequest& req, RemoteWo
     for (uint32_t n : res.film.next) total += end - n;
   res.film.next.clear();
 
-  const Clock::time_point start = Clock::now();
-  Clock::time_point deadline = Clock::time_point::max();
-  if (req.time_limit > 0)
-    deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::min(req.time_limit, 1e9)));
-  auto cancelled = [&] { return req.cancel && req.cancel->load(std::memory_order_relaxed); };
-  auto stop = [&] { return cancelled() || Clock::now() >= deadline; };
-
   std::mutex wake_m;
   std::condition_variable wake_cv;
   bool woken = false;
@@ -224,8 +217,16 @@ RenderResult render_units(const Scene& scene, const RenderRequest& req, RemoteWo
     }
     wake_cv.notify_all();
   };
+  // Built before the clock starts (Embree's BVH), as render()'s device is.
+  Clock::time_point start = Clock::time_point::max(), deadline = Clock::time_point::max();
+  auto cancelled = [&] { return req.cancel && req.cancel->load(std::memory_order_relaxed); };
+  auto stop = [&] { return cancelled() || Clock::now() >= deadline; };
   std::optional<LocalWorker> me;
   if (local) me.emplace(scene, req.threads, stop, wake);
+  start = Clock::now();
+  if (req.time_limit > 0)
+    deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::min(req.time_limit, 1e9)));
+
   const int nremote = remote ? remote->count() : 0;
   if (!local && nremote == 0) throw std::invalid_argument("render: work units need a worker");
   // Worker 0 is this process's device, 1.. the remote ones.
