@@ -21,7 +21,8 @@ using chi2::D3;
 
 namespace {
 
-constexpr int kChi2Tests = 3 /* triangles */ + 3 /* spheres from outside */ + 2 /* from inside */ + 1 /* parallelogram */;
+constexpr int kChi2Tests = 3 /* triangles */ + 3 /* spheres from outside */ + 2 /* from inside */ + 1 /* parallelogram */ +
+                           2 /* constant environment */;
 const double kThreshold = chi2::sidak(chi2::kAlpha, kChi2Tests);
 constexpr uint64_t kSamples = 200000;
 // Relative agreement of the code's float pdfs with the double reference: a
@@ -510,3 +511,47 @@ TEST(EmitterSampling, ParallelogramFollowsGeometryChanges) {
   d.compile();
   EXPECT_EQ(d.lights.size(), 2u);
 }
+
+namespace {
+
+// The constant environment toward a point that receives light from one
+// hemisphere (LightSampleContext::hemisphere): directions by the cosine about
+// its pole (χ² over the whole sphere, the lower half expecting nothing), each
+// sample's pdf equal to pdf_li, and pdf_li integrating to one; without a
+// hemisphere, uniform over the sphere.
+TEST(EmitterSampling, ConstantEnvironmentOverTheHemisphere) {
+  ConstantLight sky;
+  sky.radiance = {1.f, 1.f, 1.f};
+  const Light l(sky);
+  const D3 pole = chi2::normalized({0.3, -0.5, 0.8});
+  const LightSampleContext ctx{{0.1f, 0.2f, 0.3f}, chi2::to_vec3(pole), {}, chi2::to_vec3(pole)};
+  for (const bool hemisphere : {true, false}) {
+    const LightSampleContext c = hemisphere ? ctx : LightSampleContext{ctx.p, ctx.n, ctx.ns};
+    uint64_t mismatched = 0;
+    auto sample = [&](uint64_t i, Vec3& w) {
+      const LightSample ls = sample_li(l, c, chi2::rand2(40, i, 0), nullptr);
+      if (!(ls.pdf > 0.f)) return false;
+      mismatched += std::fabs(ls.pdf - pdf_li(l, c, ls.wi, {}, nullptr)) > 1e-4f * ls.pdf;
+      w = ls.wi;
+      return true;
+    };
+    auto pdf = [&](D3 w) { return double(pdf_li(l, c, chi2::to_vec3(w), {}, nullptr)); };
+    chi2::SphereGrid g;
+    g.axis = pole;
+    g.total_mass = 1.0;
+    const chi2::Outcome o = chi2::run_sphere(g, kSamples, sample, pdf);
+    const char* what = hemisphere ? "constant, cosine about the pole" : "constant, uniform";
+    std::printf("%-40s %s\n", what, o.result.summary().c_str());
+    EXPECT_TRUE(o.result.passes(kThreshold)) << what << ": " << o.describe(kThreshold);
+    EXPECT_EQ(mismatched, 0u) << what;
+    const double mass = chi2::integrate_2d(
+        [&](double theta, double phi) {
+          const D3 w{std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi), std::cos(theta)};
+          return pdf(w) * std::sin(theta);
+        },
+        0, M_PI, 0, 2 * M_PI);
+    EXPECT_NEAR(mass, 1.0, 1e-3) << what;
+  }
+}
+
+}  // namespace

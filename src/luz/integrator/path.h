@@ -108,6 +108,7 @@ struct PathState {
   float eta_acc = 1.f;       // product of BsdfSample::eta (Russian roulette)
   Vec3 prev_p;               // where `ray` started
   Vec3 prev_ns;              // the shading normal there (zero at the camera): the light sampler's context
+  Vec3 prev_hemisphere;      // and the hemisphere light reaches it from (LightSampleContext)
   int depth = 1;             // the vertex `ray` will find
   bool alive = true;
 };
@@ -180,7 +181,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     const LightsView& lights = scene.lights;
     // The context the previous vertex's light sample had (its p and ns, all
     // a light sampler reads), so that MIS weighs this hit by the same pmf.
-    const LightSampleContext prev_ctx{prev_p, {}, st.prev_ns};
+    const LightSampleContext prev_ctx{prev_p, {}, st.prev_ns, st.prev_hemisphere};
     if (!found) {
       if (lights.environment >= 0) {
         const Light& env = lights[uint32_t(lights.environment)];
@@ -224,6 +225,8 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     // general model's dispatch and queries in f, pdf and sample.
     const bool plain = bsdf.plain_diffuse();
     const bool transmissive = !plain && bsdf.has_transmission();
+    // Where light can come from: the viewer's side, unless the BSDF transmits.
+    const Vec3 hemisphere = transmissive ? Vec3{} : n_out;
 
     // This vertex's random numbers at fixed dimensions (base_dim + 0: light
     // 2D, + 1: lobe 1D, + 2: direction 2D, + 3: Russian roulette 1D).
@@ -238,7 +241,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       // reused coordinate keeps about 2^24 · pmf distinct values: for an
       // emitter chosen with pmf < 2^-8 it would be too coarse (a bias from
       // quantised points), so that case takes a fresh value instead.
-      const LightSampleContext ctx{it.p, it.ng, it.ns};
+      const LightSampleContext ctx{it.p, it.ng, it.ns, hemisphere};
       const SampledLight sl = lights.sampler.sample(ctx, u_light2.x);
       if (sl.pmf < kMinReusePmf) u_light2.x = sampler.aux_1d(base_dim);
       const LightSample ls = sample_li(lights[sl.light], ctx, u_light2, lights.data);
@@ -300,6 +303,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     prev_delta = bs.delta;
     prev_p = it.p;
     st.prev_ns = it.ns;
+    st.prev_hemisphere = hemisphere;
     if (bs.transmission) eta_acc *= bs.eta;
 
     // Russian roulette on the throughput without the η² of refraction.

@@ -1,5 +1,8 @@
 // A constant environment (Mitsuba's `constant`): the same radiance from every
-// direction, sampled uniformly over the sphere.
+// direction. Toward a point that can only receive light from one hemisphere
+// (LightSampleContext::hemisphere), directions are sampled by the cosine
+// about its pole, as a diffuse surface weighs them; else uniformly over the
+// sphere. Half of uniform sphere samples would fall where no light arrives.
 #pragma once
 
 #include <algorithm>
@@ -14,15 +17,24 @@ struct ConstantLight {
   static constexpr bool kDelta = false, kEnvironment = true;
   Color radiance;
 
-  LUZ_INLINE LightSample sample_li(const LightSampleContext&, Vec2 u, const LightData&) const {
+  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const LightData&) const {
     LightSample ls;
-    ls.wi = square_to_uniform_sphere(u);
+    if (dot(ctx.hemisphere, ctx.hemisphere) == 0.f) {
+      ls.wi = square_to_uniform_sphere(u);
+      ls.pdf = uniform_sphere_pdf();
+    } else {
+      const Vec3 local = square_to_cosine_hemisphere(u);
+      ls.wi = Frame::from_normal(ctx.hemisphere).to_world(local);
+      ls.pdf = cosine_hemisphere_pdf(local);
+    }
     ls.dist = kInfinity;
-    ls.pdf = uniform_sphere_pdf();
     ls.radiance = radiance;
     return ls;
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext&, Vec3, const LightHit&, const LightData&) const { return uniform_sphere_pdf(); }
+  LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit&, const LightData&) const {
+    if (dot(ctx.hemisphere, ctx.hemisphere) == 0.f) return uniform_sphere_pdf();
+    return fmaxf(dot(wi, ctx.hemisphere), 0.f) * kInvPi;
+  }
   // Emitted rays: a uniform direction, then through the scene's disk.
   LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData& data, Vec3 scene_center,
                                      float scene_radius) const {

@@ -11,6 +11,10 @@ namespace luz {
 // where not: a path's previous vertex keeps only its position).
 struct LightSampleContext {
   Vec3 p, n, ns;
+  // The hemisphere light can reach the point from, as its (unit) pole:
+  // the viewer's side of a surface that only reflects. Zero: every
+  // direction (a transmitting surface, or unknown).
+  Vec3 hemisphere{};
 };
 
 // What lights read besides their own fields: the lights' shared float array
