@@ -9,7 +9,7 @@
 // so the film is bit-identical to it for any number of workers and any
 // schedule: no partial sums are ever added together, which would round
 // differently for different splits. The price is that a block's sums travel
-// with each of its units (56 bytes a pixel each way); see bench/RESULTS.md.
+// with each of its units (52 bytes a pixel each way); see bench/RESULTS.md.
 //
 // Blocks advance independently, so a film stopped midway (a time limit, a
 // signal, a lost rank) holds different sample counts per block: Film::next
