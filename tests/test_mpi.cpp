@@ -4,6 +4,9 @@
 //  * A rank killed mid-render: rank 0 writes the image so far and a
 //    checkpoint; --resume on another number of ranks finishes the image
 //    bit-identical to the uninterrupted one.
+//  * A rank stopped (SIGSTOP: alive, silent, so the launcher does not end
+//    the job): past --mpi-timeout its units go to the others; the image is
+//    still bit-identical, rank 0 says so and the job ends, exit 1.
 //  * --frames on 3 ranks: each frame bit-identical to one process's.
 //  * --broadcast: ranks that lack the scene's files get it from rank 0; the
 //    same image.
@@ -41,6 +44,10 @@ class Mpi : public LuzCliTest {
     // OpenMPI refuses root without these (CI runs as root).
     ::setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
     ::setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+    // OpenMPI's pause before each signal it sends when a rank dies (SIGTERM,
+    // then SIGKILL): rank 0 writes the image and checkpoint between them
+    // (1 s by default, short on a loaded machine).
+    ::setenv("OMPI_MCA_odls_base_sigkill_timeout", "3", 1);
   }
 
   static std::vector<std::string> mpirun_args(int ranks, const std::vector<std::string>& program) {
@@ -76,6 +83,24 @@ class Mpi : public LuzCliTest {
     r.out = slurp(out);
     r.err = slurp(err);
     return r;
+  }
+
+  // mpirun -np 3 with luz's `args` and `extra` (shell words), each rank
+  // writing its pid to pid.RANK; returns mpirun's pid once rank 1 has been
+  // rendering for 1.5 s, and rank 1's pid (0 if it never started).
+  pid_t start_three(const std::vector<std::string>& args, const std::string& extra, pid_t& rank1) {
+    std::string command = "echo $$ > pid.$RANK.tmp && mv pid.$RANK.tmp pid.$RANK && exec " + std::string(LUZ_BINARY);
+    for (const std::string& a : args) command += " '" + a + "'";
+    command += extra;
+    const pid_t job = spawn_program(kMpiexec, mpirun_args(3, shell(command)), dir / ".stdout", dir / ".stderr");
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (!fs::exists(dir / "pid.1") && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    rank1 = 0;
+    if (!fs::exists(dir / "pid.1")) return job;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    rank1 = std::stoi(slurp(dir / "pid.1"));
+    return job;
   }
 
   static std::vector<std::string> luz(std::vector<std::string> args) {
@@ -117,19 +142,11 @@ TEST_F(Mpi, KilledRankThenResumeOnOtherRankCounts) {
   const std::string want = slurp(dir / "single.pfm");
 
   // Three ranks; rank 1 is killed once all have started rendering.
-  std::string command = "echo $$ > pid.$RANK.tmp && mv pid.$RANK.tmp pid.$RANK && exec " + std::string(LUZ_BINARY);
-  for (const std::string& a : args) command += " '" + a + "'";
-  command += " -o mpi.pfm --checkpoint job.ckpt";
-  const fs::path out = dir / ".stdout", err = dir / ".stderr";
-  const pid_t job = spawn_program(kMpiexec, mpirun_args(3, shell(command)), out, err);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  while (!fs::exists(dir / "pid.1") && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  ASSERT_TRUE(fs::exists(dir / "pid.1"));
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-  const pid_t rank1 = std::stoi(slurp(dir / "pid.1"));
+  pid_t rank1 = 0;
+  const pid_t job = start_three(args, " -o mpi.pfm --checkpoint job.ckpt", rank1);
+  ASSERT_GT(rank1, 0);
   ASSERT_EQ(::kill(rank1, SIGKILL), 0);
-  const CliResult killed = wait_for(job, out, err, 60);
+  const CliResult killed = wait_for(job, dir / ".stdout", dir / ".stderr", 60);
   if (!fs::exists(dir / "job.ckpt")) {
     // Only a render that finished before the kill leaves none (a very fast machine).
     ASSERT_TRUE(slurp(dir / "mpi.pfm") == want) << killed.err;
@@ -148,6 +165,33 @@ TEST_F(Mpi, KilledRankThenResumeOnOtherRankCounts) {
   ASSERT_EQ(one.status, 0) << one.err;
   EXPECT_TRUE(slurp(dir / "one.pfm") == want) << "killed on 3 ranks, resumed in one process: differs";
   EXPECT_FALSE(fs::exists(dir / "job.ckpt")) << "a finished render keeps its checkpoint";
+}
+
+TEST_F(Mpi, SilentRankIsTakenAsLost) {
+  const std::vector<std::string> args = {"render", kBox, "-D", "res=64", "--spp", "1024", "--seed", "9", "-q"};
+  std::vector<std::string> single = args;
+  single.insert(single.end(), {"-o", "single.pfm"});
+  ASSERT_EQ(run(single).status, 0);
+  pid_t rank1 = 0;
+  const pid_t job = start_three(args, " -o mpi.pfm --mpi-timeout 2", rank1);
+  ASSERT_GT(rank1, 0);
+  ASSERT_EQ(::kill(rank1, SIGSTOP), 0);
+  // Once rank 0 has written the image, the stopped rank goes (the launcher's
+  // own teardown of a stopped process takes its SIGKILL timeout).
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!fs::exists(dir / "mpi.pfm") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  ::kill(rank1, SIGKILL);
+  const CliResult r = wait_for(job, dir / ".stdout", dir / ".stderr", 60);
+  EXPECT_TRUE(slurp(dir / "mpi.pfm") == slurp(dir / "single.pfm")) << r.err;
+  if (r.err.find("taken as lost") == std::string::npos) {
+    // Only a render that finished before the stop says nothing.
+    EXPECT_EQ(r.status, 0) << r.err;
+    GTEST_SKIP() << "rank 1 held no unit long enough to be lost";
+  }
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("luz: warning: rank 1 sent nothing for 2 s"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("luz: error: a rank was lost"), std::string::npos) << r.err;
 }
 
 TEST_F(Mpi, FramesOnThreeRanks) {

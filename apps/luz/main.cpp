@@ -100,6 +100,7 @@ struct RenderOptions {
   bool quiet = false;
   bool broadcast = false;  // an MPI render: rank 0 loads the scene and sends it
   std::string camera;      // a glTF camera by name
+  double mpi_timeout = 600;  // seconds a rank may hold a unit before it is taken as lost
   std::vector<std::string> aovs;  // albedo, normal, depth, variance
 
   // Name/value pairs, flattened; only what a resume asks again (not the
@@ -561,6 +562,7 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
     luz::ProgressBar bar(o.quiet ? Mode::Off : ::isatty(2) ? Mode::Bar : Mode::Lines, total, s.spp);
     bar.set_spp_done(req.first_sample);
     req.progress = [&](const luz::RenderProgress& p) { bar.set(p.samples_done, req.first_sample + p.spp_done); };
+    if (job) job->set_unit_timeout(o.mpi_timeout);
     result = job ? job->render(scene, req) : luz::render(scene, req);
   }
   const int sig = g_signal.load();
@@ -729,6 +731,10 @@ int run(int argc, char** argv, luz::MpiJob* job) {
       ->delimiter(',')
       ->check(CLI::IsMember({"albedo", "normal", "depth", "variance"}));
   rc->add_option("--camera", o.camera, "the camera to render, by name (glTF files name theirs; default: the first)");
+  rc->add_option("--mpi-timeout", o.mpi_timeout,
+                 "under mpirun: seconds a rank may hold a work unit before it is taken as lost and its units go to "
+                 "the others (default 600)")
+      ->check(number_in(0, false, 1e9, "a number of seconds above 0 and at most 1e9", "SECONDS"));
   rc->add_flag("--broadcast", o.broadcast,
               "under mpirun: rank 0 loads the scene and sends it to the other ranks (for files only its machine has)");
   rc->add_flag("-q,--quiet", o.quiet, "no progress bar and no stats lines (warnings and errors still print)");
@@ -776,7 +782,7 @@ int run(int argc, char** argv, luz::MpiJob* job) {
         for (const std::string& out : f.outs) check_output(out);
     for (size_t k = 0;; ++k) {
       const int status = render(frames[k], resume, given, job);
-      if (status != 0 || k + 1 == frames.size()) return status;
+      if (status != 0 || k + 1 == frames.size() || (job && job->lost_ranks())) return status;
       if (job) job->end_frame(status);
     }
   } catch (const luz::InputError& e) {
@@ -811,7 +817,24 @@ int main(int argc, char** argv) {
   }
   const int status = run(argc, argv, job ? &*job : nullptr);
   if (!job) return status;
-  const int job_status = job->finish(status, g_error_line);
+  if (g_signal.load() != 0) {
+    // A signal (the launcher ending the job after a rank died, or Ctrl-C):
+    // the outputs and checkpoint are written; waiting on the other ranks, a
+    // dead one among them, would only stall until the launcher's SIGKILL.
+    std::fflush(stdout);
+    std::fflush(stderr);
+    ::_exit(status != 0 ? status : 128 + g_signal.load());
+  }
+  int job_status = job->finish(status, g_error_line);
+  if (job->lost_ranks()) {
+    // MPI_Finalize would wait for the lost rank: rank 0 ends without it,
+    // its outputs written, and the launcher ends the others.
+    std::fprintf(stderr, "luz: error: a rank was lost during the render (its units were redone by the others); "
+                         "ending the job without it\n");
+    std::fflush(stdout);
+    std::fflush(stderr);
+    ::_exit(job_status != 0 ? job_status : 1);
+  }
   // The job is over: a launcher that stops the ranks still finalising,
   // because one already exited non-zero, must not make rank 0 speak again.
   ::signal(SIGINT, SIG_IGN);

@@ -140,12 +140,17 @@ void wait(MPI_Request& r) {
 struct MpiJob::Impl {
   int rank = 0, size = 1, node_ranks = 1;
   bool agreed = false, stopped = false;
-  // Rank 0, per rank: a unit out, the rank gone (left or failed), its
-  // threads, and the unit message being sent to it.
-  std::vector<char> out, gone;
+  // Rank 0, per rank: a unit out, the rank gone (left or failed), lost
+  // (silent past the timeout), its threads, the unit message being sent to
+  // it, that unit and when it went.
+  std::vector<char> out, gone, lost;
   std::vector<int> threads;
   std::vector<std::vector<char>> sending;
   std::vector<MPI_Request> send_req;
+  std::vector<WorkUnit> unit;
+  std::vector<std::chrono::steady_clock::time_point> since;
+  double timeout = 600;
+  bool any_lost = false;
 };
 
 namespace {
@@ -167,14 +172,33 @@ class RemoteRanks : public RemoteWorkers {
     MPI_Isend(j_.sending[r].data(), int(j_.sending[r].size()), MPI_BYTE, int(r), kTagUnit, MPI_COMM_WORLD,
               &j_.send_req[r]);
     j_.out[r] = 1;
+    j_.unit[r] = u;
+    j_.since[r] = std::chrono::steady_clock::now();
   }
   bool poll(UnitResult& res) override {
+    // A rank silent past the timeout (stopped, or dead under a launcher
+    // that does not end the job) is lost: its unit goes back to the others.
+    const auto now = std::chrono::steady_clock::now();
+    for (size_t r = 1; r < size_t(j_.size); ++r)
+      if (j_.out[r] && std::chrono::duration<double>(now - j_.since[r]).count() > j_.timeout) {
+        j_.out[r] = 0;
+        j_.gone[r] = j_.lost[r] = 1;
+        j_.any_lost = true;
+        std::fprintf(stderr, "\nluz: warning: rank %zu sent nothing for %g s: taken as lost, its units go to the other ranks\n",
+                     r, j_.timeout);
+        res.worker = int(r) - 1;
+        res.unit = j_.unit[r];
+        res.complete = false;
+        res.rays = res.discarded = 0;
+        return true;
+      }
     int flag = 0;
     MPI_Status st;
     MPI_Iprobe(MPI_ANY_SOURCE, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
     if (!flag) return false;
     const std::vector<char> b = receive(st);
     const size_t r = size_t(st.MPI_SOURCE);
+    if (j_.lost[r]) return false;  // too late: its unit went to another rank
     j_.out[r] = 0;
     if (st.MPI_TAG == kTagError) {
       j_.gone[r] = 1;
@@ -212,6 +236,9 @@ MpiJob::MpiJob(int& argc, char**& argv) : m_(std::make_unique<Impl>()) {
   const size_t n = size_t(m_->size);
   m_->out.assign(n, 0);
   m_->gone.assign(n, 0);
+  m_->lost.assign(n, 0);
+  m_->unit.resize(n);
+  m_->since.resize(n);
   m_->threads.assign(n, 1);
   m_->sending.resize(n);
   m_->send_req.assign(n, MPI_REQUEST_NULL);
@@ -225,7 +252,12 @@ MpiJob::MpiJob(int& argc, char**& argv) : m_(std::make_unique<Impl>()) {
   }
 }
 
-MpiJob::~MpiJob() { MPI_Finalize(); }
+MpiJob::~MpiJob() {
+  if (!m_->any_lost) MPI_Finalize();  // a lost rank would never join it
+}
+
+void MpiJob::set_unit_timeout(double seconds) { m_->timeout = seconds; }
+bool MpiJob::lost_ranks() const { return m_->any_lost; }
 
 int MpiJob::rank() const { return m_->rank; }
 int MpiJob::size() const { return m_->size; }
@@ -316,7 +348,12 @@ int MpiJob::work(const Scene* scene, int threads, const std::atomic<bool>* cance
   }
   send(std::vector<char>(), 0, kTagReady);
   for (;;) {
-    const MPI_Status st = wait_message(0);
+    MPI_Status st;
+    for (int flag = 0; !flag;) {
+      MPI_Iprobe(0, MPI_ANY_TAG, MPI_COMM_WORLD, &flag, &st);
+      if (!flag && cancelled()) return 1;  // signalled: the caller exits
+      if (!flag) nap();
+    }
     const std::vector<char> b = receive(st);
     Unpacker in(b);
     if (st.MPI_TAG == kTagStop) {
@@ -382,6 +419,7 @@ void MpiJob::stop(int status) {
   // The units still out come back (a stop ends them within a unit), then
   // every rank gets the status.
   for (int r = 1; r < j.size; ++r) {
+    if (j.lost[size_t(r)]) continue;
     while (j.out[size_t(r)]) {
       const MPI_Status st = wait_message(r);
       receive(st);
@@ -392,7 +430,8 @@ void MpiJob::stop(int status) {
   }
   Packer stop;
   stop.pod(int32_t(status));
-  for (int r = 1; r < j.size; ++r) send(stop.bytes(), r, kTagStop);
+  for (int r = 1; r < j.size; ++r)
+    if (!j.lost[size_t(r)]) send(stop.bytes(), r, kTagStop);
   j.stopped = true;
 }
 

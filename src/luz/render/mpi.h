@@ -66,10 +66,17 @@ class MpiJob {
   // (the request's CPU threads are this process's).
   RenderResult render(const Scene& scene, const RenderRequest& request);
   // The other ranks: render the units rank 0 sends until it says stop;
-  // returns the exit status rank 0 gives. `cancel` makes this rank leave
-  // (its unit abandoned) and wait for the stop. Without a scene (one that
-  // failed to arrive), every unit is answered with `error`.
+  // returns the exit status rank 0 gives. `cancel` (a signal) makes this
+  // rank abandon its unit, tell rank 0 it leaves, and return 1. Without a
+  // scene (one that failed to arrive), every unit is answered with `error`.
   int work(const Scene* scene, int threads, const std::atomic<bool>* cancel, const std::string& error = "");
+
+  // Rank 0: seconds a rank may hold a unit before it is taken as lost
+  // (default 600; a unit is about a quarter second of work).
+  void set_unit_timeout(double seconds);
+  // Whether a rank was lost: the job cannot end cleanly (MPI_Finalize would
+  // wait for it), so rank 0 exits without it and the launcher ends the rest.
+  bool lost_ranks() const;
 
   // After a frame (luz render --frames): rank 0 collects the units still
   // out and sends `status` (the others' work() returns it); then the next
