@@ -393,13 +393,15 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
     std::string bytes;
     job->broadcast(bytes);
     install_signal_handlers();
+    std::optional<luz::Scene> scene;
+    std::string error;
     try {
-      const luz::Scene scene = luz::deserialize_scene(bytes);
-      bytes = std::string();
-      return job->work(&scene, o.threads, &g_cancel);
+      scene = luz::deserialize_scene(bytes);
     } catch (const std::exception& e) {
-      return job->work(nullptr, o.threads, &g_cancel, std::string("the broadcast scene: ") + e.what());
+      error = std::string("the broadcast scene: ") + e.what();
     }
+    bytes = std::string();
+    return job->work(scene ? &*scene : nullptr, o.threads, &g_cancel, error);
   }
   std::optional<luz::Checkpoint> ckpt;
   if (!resume.empty()) {

@@ -428,10 +428,10 @@ void MpiJob::stop(int status) {
     if (j.send_req[size_t(r)] != MPI_REQUEST_NULL) wait(j.send_req[size_t(r)]);
     j.gone[size_t(r)] = 0;
   }
-  Packer stop;
-  stop.pod(int32_t(status));
+  Packer message;
+  message.pod(int32_t(status));
   for (int r = 1; r < j.size; ++r)
-    if (!j.lost[size_t(r)]) send(stop.bytes(), r, kTagStop);
+    if (!j.lost[size_t(r)]) send(message.bytes(), r, kTagStop);
   j.stopped = true;
 }
 

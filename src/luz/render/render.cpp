@@ -86,6 +86,12 @@ uint32_t next_pass_spp(uint64_t pixels, int threads, uint32_t previous, uint32_t
   return uint32_t(n);
 }
 
+Clock::time_point deadline_of(const RenderRequest& req, Clock::time_point start) {
+  if (!(req.time_limit > 0)) return Clock::time_point::max();
+  return start + std::chrono::duration_cast<Clock::duration>(
+                     std::chrono::duration<double>(std::min(req.time_limit, 1e9)));  // no overflow
+}
+
 void check_request(const Scene& scene, const RenderRequest& req) {
   const Camera& cam = scene.camera;
   const uint32_t first = req.first_sample, end = req.end_sample.value_or(scene.settings.spp);
@@ -122,9 +128,7 @@ RenderResult render(const Scene& scene, const RenderRequest& req) {
   };
   auto set_deadline = [&] {
     start = Clock::now();
-    if (req.time_limit > 0)
-      deadline = start + std::chrono::duration_cast<Clock::duration>(
-                             std::chrono::duration<double>(std::min(req.time_limit, 1e9)));  // no overflow
+    deadline = deadline_of(req, start);
   };
 
   if (req.device == RenderDevice::Cuda) {

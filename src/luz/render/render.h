@@ -13,6 +13,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -105,6 +106,10 @@ RenderResult render(const Scene& scene, const RenderRequest& request);
 
 // The std::invalid_argument render() throws for a request, if any.
 void check_request(const Scene& scene, const RenderRequest& request);
+
+// When the request's time limit, counted from `start`, runs out (max: no limit).
+std::chrono::steady_clock::time_point deadline_of(const RenderRequest& request,
+                                                  std::chrono::steady_clock::time_point start);
 
 // Pixels on a side of a work unit's block (render/units.h), where the image has enough of them.
 inline constexpr int kUnitBlock = 16;

@@ -41,6 +41,7 @@ UnitScheduler::UnitScheduler(int width, int height, int size, uint32_t first, co
     if (next_[b] < first || next_[b] > end)
       throw std::invalid_argument("render: a start film pixel holds samples outside the render's range");
     if (next_[b] < end) idle_.emplace(next_[b], b);
+    ++at_[next_[b]];
   }
 }
 
@@ -64,6 +65,8 @@ bool UnitScheduler::take(uint64_t samples, WorkUnit& u) {
 
 void UnitScheduler::done(const WorkUnit& u) {
   --out_;
+  if (--at_[u.first] == 0) at_.erase(u.first);
+  ++at_[u.end];
   next_[u.block] = u.end;
   if (u.end < end_) idle_.emplace(u.end, u.block);
 }
@@ -74,11 +77,11 @@ void UnitScheduler::undo(const WorkUnit& u) {
 }
 
 uint32_t UnitScheduler::frontier() const {
-  return next_.empty() ? end_ : *std::min_element(next_.begin(), next_.end());
+  return at_.empty() ? end_ : at_.begin()->first;
 }
 
 std::vector<uint32_t> UnitScheduler::pixel_next() const {
-  if (std::all_of(next_.begin(), next_.end(), [&](uint32_t n) { return n == next_.front(); })) return {};
+  if (at_.size() <= 1) return {};
   std::vector<uint32_t> px(size_t(width_) * size_t(height_));
   for (uint32_t b = 0; b < next_.size(); ++b) {
     const PixelRect r = rect(b);
@@ -224,8 +227,7 @@ RenderResult render_units(const Scene& scene, const RenderRequest& req, RemoteWo
   std::optional<LocalWorker> me;
   if (local) me.emplace(scene, req.threads, stop, wake);
   start = Clock::now();
-  if (req.time_limit > 0)
-    deadline = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::min(req.time_limit, 1e9)));
+  deadline = deadline_of(req, start);
 
   const int nremote = remote ? remote->count() : 0;
   if (!local && nremote == 0) throw std::invalid_argument("render: work units need a worker");

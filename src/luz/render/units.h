@@ -18,6 +18,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <set>
 #include <string>
 #include <utility>
@@ -65,6 +66,7 @@ class UnitScheduler {
   uint32_t end_;
   std::vector<uint32_t> next_;                    // per block
   std::set<std::pair<uint32_t, uint32_t>> idle_;  // (next, block) of blocks neither out nor finished
+  std::map<uint32_t, uint32_t> at_;               // how many blocks are at each next sample (frontier: the first)
   int out_ = 0;
 };
 
