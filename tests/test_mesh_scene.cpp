@@ -21,6 +21,7 @@ TEST(MeshScene, PlyRendersUnderAWhiteSky) {
   EXPECT_NE(s.warnings[0].find("bun_zipper.ply: warning: no light in the file"), std::string::npos) << s.warnings[0];
   ASSERT_EQ(s.lights.size(), 1u);
   EXPECT_EQ(s.lights[0].type, luz::LightType::Constant);
+  EXPECT_EQ(s.settings.sampler, luz::SamplerType::Sobol);  // the default where a scene names none
   s.set_resolution(32, 32);
   s.settings.spp = 4;
   luz::Film f = luz_test::render_finite(s);

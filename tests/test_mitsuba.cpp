@@ -406,7 +406,8 @@ TEST_F(Mitsuba, FilmAndFilter) {
 TEST_F(Mitsuba, Sampler) {
   auto load_sampler = [&](const std::string& sampler) { return load(scene("<shape type=\"sphere\"/>\n", sampler)).settings; };
   luz::RenderSettings r = load_sampler("");
-  EXPECT_EQ(r.sampler, luz::SamplerType::Independent);  // Mitsuba's default sampler: independent, 4 samples
+  // Mitsuba's default sample count (4), Luz's default sampler where none is named.
+  EXPECT_EQ(r.sampler, luz::SamplerType::Sobol);
   EXPECT_EQ(r.spp, 4u);
   r = load_sampler("<sampler type=\"independent\"><integer name=\"sample_count\" value=\"9\"/></sampler>");
   EXPECT_EQ(r.sampler, luz::SamplerType::Independent);

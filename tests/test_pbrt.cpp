@@ -389,6 +389,12 @@ TEST_F(PbrtScene, CameraFilmSamplerIntegrator) {
   // pbrt's default maxdepth is 5; other integrators warn and render as path.
   s = load_scene(write("d.pbrt", scene_text("Integrator \"bdpt\"\n", quad(-1, 1))));
   EXPECT_EQ(s.settings.integrator.max_depth, 6);
+  // No Sampler: Luz's default (pbrt-v4's own is zsobol), its spp 16.
+  std::string no_sampler = scene_text("", quad(-1, 1));
+  no_sampler.erase(no_sampler.find("Sampler"), no_sampler.find("WorldBegin") - no_sampler.find("Sampler"));
+  Scene n = load_scene(write("e.pbrt", no_sampler));
+  EXPECT_EQ(n.settings.sampler, SamplerType::Sobol);
+  EXPECT_EQ(n.settings.spp, 16u);
   ASSERT_EQ(s.warnings.size(), 1u);
   EXPECT_NE(s.warnings[0].find("d.pbrt:5: warning: integrator 'bdpt'"), std::string::npos) << s.warnings[0];
   // A screen window shifted right: the film's left edge moves right (Luz's x is pbrt's -x).

@@ -693,7 +693,7 @@ int run(int argc, char** argv, luz::MpiJob* job) {
   rc->add_option("--max-depth", o.max_depth, "longest path, Mitsuba's max_depth (-1: unbounded)")
       ->check(integer_in(1, luz::kMaxDepthLimit,
                          "-1 (unbounded) or a depth from 1 to " + std::to_string(luz::kMaxDepthLimit), true));
-  rc->add_option("--sampler", o.sampler, "sample generator")->check(CLI::IsMember({"independent", "stratified", "sobol"}));
+  rc->add_option("--sampler", o.sampler, "sample generator (default: the scene's, else sobol)")->check(CLI::IsMember({"independent", "stratified", "sobol"}));
   rc->add_option("--integrator", o.integrator, "estimator")->check(CLI::IsMember({"path", "bsdf", "light"}));
   rc->add_option("--light-sampler", o.light_sampler,
                  "light selection: power (default: by power alone) or bvh (a light BVH: also by distance and orientation)")

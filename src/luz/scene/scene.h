@@ -14,7 +14,9 @@
 namespace luz {
 
 struct RenderSettings {
-  SamplerType sampler = SamplerType::Independent;
+  // Luz's best sampler where a scene names none (OBJ, PLY, glTF, pbrt-v4
+  // without a Sampler, a Mitsuba sensor without <sampler>).
+  SamplerType sampler = SamplerType::Sobol;
   uint32_t spp = 16;
   uint64_t seed = 0;
   IntegratorParams integrator;

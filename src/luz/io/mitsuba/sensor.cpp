@@ -103,9 +103,10 @@ void MitsubaParser::parse_sensor(pugi::xml_node n) {
   p.check_all_used();
 
   int width = 768, height = 576;
-  // Mitsuba's defaults when the sensor names no sampler or film: an
-  // independent sampler with 4 samples, a 768×576 hdrfilm, a gaussian rfilter.
-  builder_.settings().sampler = SamplerType::Independent;
+  // Mitsuba's defaults when the sensor names no sampler or film: 4 samples,
+  // a 768×576 hdrfilm, a gaussian rfilter; but Luz's best sampler (sobol)
+  // where Mitsuba would take `independent`, which the scene did not ask for.
+  builder_.settings().sampler = SamplerType::Sobol;
   builder_.settings().spp = 4;
   builder_.settings().filter = FilterKind::Gaussian;
   if (std::distance(n.children("sampler").begin(), n.children("sampler").end()) > 1)
