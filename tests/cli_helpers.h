@@ -70,9 +70,12 @@ class LuzCliTest : public TempDirTest {
   }
 
   // Runs luz with args in dir; stdout and stderr go to files there, removed after.
-  CliResult run(const std::vector<std::string>& args) {
+  CliResult run(const std::vector<std::string>& args) { return run_program(LUZ_BINARY, args); }
+
+  // The same for another program.
+  CliResult run_program(const std::string& program, const std::vector<std::string>& args) {
     fs::path out_file = dir / ".stdout", err_file = dir / ".stderr";
-    pid_t pid = spawn(args, out_file, err_file);
+    pid_t pid = spawn_program(program, args, out_file, err_file);
     CliResult r;
     int st = 0;
     EXPECT_EQ(::waitpid(pid, &st, 0), pid);

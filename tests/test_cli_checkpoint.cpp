@@ -7,9 +7,11 @@
 //  * SIGINT and SIGTERM mid-render: exit 130 / 143, the image so far with its
 //    spp in the EXR metadata, a checkpoint that resumes to the exact image.
 //  * Outputs that cannot be written are refused before the render starts (a
-//    path in /proc, an over-long name, a read-only directory, a device); an
-//    output that fails at the end does not keep the others from being
-//    written; a symlinked output is written through to its target.
+//    path in /proc, an over-long name, a read-only directory or file system,
+//    a device); an output that fails at the end (its directory removed, its
+//    file system full: tmpfs mounted in a mount namespace of the test's own)
+//    does not keep the others from being written; a symlinked output is
+//    written through to its target.
 //  * luz --version.
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
@@ -41,6 +43,18 @@ class Resume : public LuzCliTest {
   }
   static void sleep_s(double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }
   bool exists(const std::string& name) const { return fs::exists(dir / name); }
+  // Runs `sh -c script` in a mount namespace of its own (unshare -m), in dir,
+  // with luz's path as $LUZ; the tmpfs it mounts vanish with it. Status 125
+  // from the script: mounting is not allowed here.
+  CliResult run_in_mount_namespace(const std::string& script) {
+    return run_program("/usr/bin/unshare", {"-m", "/bin/sh", "-c", "LUZ=" LUZ_BINARY "; " + script});
+  }
+
+  // A small tmpfs mounted on `mnt` (options `opts`), or status 125.
+  static std::string mount_tmpfs(const std::string& mnt, const std::string& opts) {
+    return "mkdir -p " + mnt + " && mount -t tmpfs -o " + opts + " luz-test " + mnt + " 2>/dev/null || exit 125; ";
+  }
+
   // Hidden files (luz's temporaries are ".luz-*") other than the test's own.
   std::vector<std::string> temporaries() const {
     std::vector<std::string> t;
@@ -193,9 +207,39 @@ TEST_F(Resume, UnwritableOutputsAreRefusedBeforeTheRender) {
     fs::permissions(dir / "ro", fs::perms::owner_read | fs::perms::owner_exec);
     refused_at_once("ro/out.exr", "Permission denied");
     fs::permissions(dir / "ro", fs::perms::owner_all);
-  } else {
-    std::printf("note: running as root, which writes into read-only directories: that case is not tested\n");
-  }
+  }  // as root (who writes into mode 0555 directories): ReadOnlyFileSystemIsRefusedBeforeTheRender
+}
+
+// A read-only file system refuses even root: the output is refused before
+// the scene loads. Needs a mount namespace (root, or CAP_SYS_ADMIN).
+TEST_F(Resume, ReadOnlyFileSystemIsRefusedBeforeTheRender) {
+  CliResult r = run_in_mount_namespace(
+      mount_tmpfs("ro", "ro,size=64k") + "exec \"$LUZ\" render " + kCornell + " --spp 100000 -o ro/out.exr");
+  if (r.status == 125 || (r.status == 1 && r.err.find("unshare") != std::string::npos))
+    GTEST_SKIP() << "no mount namespace here: " << r.err;
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  EXPECT_NE(r.err.find("Read-only file system"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("loaded in"), std::string::npos) << "the scene was loaded: " << r.err;
+}
+
+// One output on a full file system (a 16 KiB tmpfs; the image is larger):
+// the render runs (the output's probe fits), that output fails at the end
+// with one line and leaves nothing there, the others are written, exit 1.
+TEST_F(Resume, FullFileSystemFailsOneOutputAndTheOthersAreWritten) {
+  CliResult r = run_in_mount_namespace(
+      mount_tmpfs("full", "size=16k") + "\"$LUZ\" render " + kCornell +
+                 " -D res=96 --spp 4 -q -o a.pfm -o full/b.exr -o c.png; rc=$?; ls -A full; exit $rc");
+  if (r.status == 125 || (r.status == 1 && r.err.find("unshare") != std::string::npos))
+    GTEST_SKIP() << "no mount namespace here: " << r.err;
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_NE(r.err.find("full/b.exr"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
+  EXPECT_EQ(r.out, "") << "files left on the full file system: " << r.out;
+  EXPECT_GT(fs::file_size(dir / "a.pfm"), 96u * 96u * 12u);
+  EXPECT_TRUE(exists("c.png"));
+  EXPECT_TRUE(exists("a.pfm.checkpoint")) << "the render is kept to write the failed output again";
+  EXPECT_EQ(temporaries(), std::vector<std::string>{});
 }
 
 TEST_F(Resume, OneFailedOutputDoesNotStopTheOthersAndSymlinksAreFollowed) {

@@ -181,6 +181,16 @@ TEST_F(Mpi, SilentRankIsTakenAsLost) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
   while (!fs::exists(dir / "mpi.pfm") && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  // Rank 0's exit first: killed before it, rank 1's status (137) could be
+  // the one the launcher returns.
+  const std::string rank0_stat = "/proc/" + std::to_string(std::stoi(slurp(dir / "pid.0"))) + "/stat";
+  auto running = [&] {
+    const std::string st = slurp(rank0_stat);
+    const size_t paren = st.rfind(')');
+    return paren != std::string::npos && paren + 2 < st.size() && st[paren + 2] != 'Z';
+  };
+  while (running() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
   ::kill(rank1, SIGKILL);
   const CliResult r = wait_for(job, dir / ".stdout", dir / ".stderr", 60);
   EXPECT_TRUE(slurp(dir / "mpi.pfm") == slurp(dir / "single.pfm")) << r.err;
