@@ -100,7 +100,7 @@ struct RenderOptions {
   bool quiet = false;
   bool broadcast = false;  // an MPI render: rank 0 loads the scene and sends it
   std::string camera;      // a glTF camera by name
-  double mpi_timeout = 600;  // seconds a rank may hold a unit before it is taken as lost
+  double mpi_timeout = 600;  // seconds a rank may load the scene or hold a unit before it is taken as lost
   std::vector<std::string> aovs;  // albedo, normal, depth, variance
 
   // Name/value pairs, flattened; only what a resume asks again (not the
@@ -463,6 +463,7 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
     if (!use_cuda && o.device == "cuda") throw luz::InputError("--device cuda: " + no_gpu);
   }
 
+  if (job) job->set_timeout(o.mpi_timeout);  // for the wait until every rank has loaded the scene
   check_scene_file(o.scene);
   const auto load_start = std::chrono::steady_clock::now();
   luz::Scene scene = luz::load_scene(o.scene, defines, o.search, o.camera);
@@ -564,7 +565,6 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
     luz::ProgressBar bar(o.quiet ? Mode::Off : ::isatty(2) ? Mode::Bar : Mode::Lines, total, s.spp);
     bar.set_spp_done(req.first_sample);
     req.progress = [&](const luz::RenderProgress& p) { bar.set(p.samples_done, req.first_sample + p.spp_done); };
-    if (job) job->set_unit_timeout(o.mpi_timeout);
     result = job ? job->render(scene, req) : luz::render(scene, req);
   }
   const int sig = g_signal.load();
@@ -735,7 +735,7 @@ int run(int argc, char** argv, luz::MpiJob* job) {
   rc->add_option("--camera", o.camera, "the camera to render, by name (glTF files name theirs; default: the first)");
   rc->add_option("--mpi-timeout", o.mpi_timeout,
                  "under mpirun: seconds a rank may hold a work unit before it is taken as lost and its units go to "
-                 "the others (default 600)")
+                 "the others, or take to load the scene before the job ends (default 600)")
       ->check(number_in(0, false, 1e9, "a number of seconds above 0 and at most 1e9", "SECONDS"));
   rc->add_flag("--broadcast", o.broadcast,
               "under mpirun: rank 0 loads the scene and sends it to the other ranks (for files only its machine has)");
@@ -828,6 +828,12 @@ int main(int argc, char** argv) {
     ::_exit(status != 0 ? status : 128 + g_signal.load());
   }
   int job_status = job->finish(status, g_error_line);
+  if (job->timed_out()) {
+    // A rank never finished loading: it would hold MPI_Finalize too.
+    std::fflush(stdout);
+    std::fflush(stderr);
+    ::_exit(job_status);
+  }
   if (job->lost_ranks()) {
     // MPI_Finalize would wait for the lost rank: rank 0 ends without it,
     // its outputs written, and the launcher ends the others.

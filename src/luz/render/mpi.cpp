@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <optional>
 #include <stdexcept>
@@ -135,6 +136,18 @@ void wait(MPI_Request& r) {
   }
 }
 
+// wait() for at most `seconds`: whether the request completed.
+bool wait_for(MPI_Request& r, double seconds) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (int flag = 0; !flag;) {
+    MPI_Test(&r, &flag, MPI_STATUS_IGNORE);
+    if (flag) break;
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    nap();
+  }
+  return true;
+}
+
 }  // namespace
 
 struct MpiJob::Impl {
@@ -151,6 +164,7 @@ struct MpiJob::Impl {
   std::vector<std::chrono::steady_clock::time_point> since;
   double timeout = 600;
   bool any_lost = false;
+  bool timed_out = false;  // a rank silent past the timeout before the render
 };
 
 namespace {
@@ -256,7 +270,8 @@ MpiJob::~MpiJob() {
   if (!m_->any_lost) MPI_Finalize();  // a lost rank would never join it
 }
 
-void MpiJob::set_unit_timeout(double seconds) { m_->timeout = seconds; }
+void MpiJob::set_timeout(double seconds) { m_->timeout = seconds; }
+bool MpiJob::timed_out() const { return m_->timed_out; }
 bool MpiJob::lost_ranks() const { return m_->any_lost; }
 
 int MpiJob::rank() const { return m_->rank; }
@@ -278,8 +293,16 @@ std::string MpiJob::agree(const std::string& error, int threads) {
   j.agreed = true;
   int mine = error.empty() ? j.size : j.rank, first = j.size;
   MPI_Request req;
+  // A rank still loading past the timeout (a hung file system, a stopped
+  // process) would hold every other rank here: the job ends instead.
   MPI_Iallreduce(&mine, &first, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD, &req);
-  wait(req);
+  if (!wait_for(req, j.timeout)) {
+    j.timed_out = true;
+    char line[160];
+    std::snprintf(line, sizeof line,
+                  "luz: error: a rank had not loaded the scene after %g s (--mpi-timeout); ending the job", j.timeout);
+    return line;
+  }
   MPI_Igather(&threads, 1, MPI_INT, j.threads.data(), 1, MPI_INT, 0, MPI_COMM_WORLD, &req);
   wait(req);
   if (first == j.size) return "";
@@ -392,6 +415,7 @@ int MpiJob::finish(int status, const std::string& error) {
       status = std::max(status, 2);
     }
   }
+  if (j.timed_out) return std::max(status, 2);  // no word from a rank: nothing to wait for
   if (j.rank != 0) {
     while (!j.stopped) {
       const MPI_Status st = wait_message(0);

@@ -71,9 +71,14 @@ class MpiJob {
   // scene (one that failed to arrive), every unit is answered with `error`.
   int work(const Scene* scene, int threads, const std::atomic<bool>* cancel, const std::string& error = "");
 
-  // Rank 0: seconds a rank may hold a unit before it is taken as lost
-  // (default 600; a unit is about a quarter second of work).
-  void set_unit_timeout(double seconds);
+  // Seconds a rank may hold a unit before it is taken as lost (rank 0), and
+  // that agree() waits for every rank to have loaded the scene (default
+  // 600; a unit is about a quarter second of work).
+  void set_timeout(double seconds);
+  // Whether agree() gave up waiting: the job cannot end cleanly (MPI_Finalize
+  // would wait for the silent rank), so every rank exits at once, and the
+  // launcher ends the silent one.
+  bool timed_out() const;
   // Whether a rank was lost: the job cannot end cleanly (MPI_Finalize would
   // wait for it), so rank 0 exits without it and the launcher ends the rest.
   bool lost_ranks() const;

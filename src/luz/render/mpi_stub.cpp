@@ -23,7 +23,8 @@ RenderResult MpiJob::render(const Scene& scene, const RenderRequest& request) { 
 int MpiJob::work(const Scene*, int, const std::atomic<bool>*, const std::string&) { return 0; }
 void MpiJob::broadcast(std::string&) {}
 void MpiJob::end_frame(int) {}
-void MpiJob::set_unit_timeout(double) {}
+void MpiJob::set_timeout(double) {}
+bool MpiJob::timed_out() const { return false; }
 bool MpiJob::lost_ranks() const { return false; }
 int MpiJob::finish(int status, const std::string&) { return status; }
 
