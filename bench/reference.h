@@ -19,11 +19,27 @@ namespace luz_bench {
 // relMSE's denominator offset: (x - r)² / (r² + kEps).
 constexpr double kEps = 0.01;
 
-inline double rel_mse(const luz::Film& f, const std::vector<double>& ref) {
-  const std::vector<float> m = f.mean();
+// The pixels a relMSE is taken over: a flag per pixel, or all when empty.
+using PixelMask = std::vector<char>;
+
+// The mean over the mask's values (3 a pixel) of term(k).
+template <class Term>
+double mean_over(const PixelMask& keep, size_t values, Term term) {
   double acc = 0;
-  for (size_t k = 0; k < m.size(); ++k) acc += (m[k] - ref[k]) * (m[k] - ref[k]) / (ref[k] * ref[k] + kEps);
-  return acc / double(m.size());
+  size_t n = 0;
+  for (size_t k = 0; k < values; ++k)
+    if (keep.empty() || keep[k / 3]) {
+      acc += term(k);
+      ++n;
+    }
+  return n ? acc / double(n) : 0.0;
+}
+
+inline double rel_mse(const std::vector<float>& m, const std::vector<double>& ref, const PixelMask& keep = {}) {
+  return mean_over(keep, m.size(), [&](size_t k) { return (m[k] - ref[k]) * (m[k] - ref[k]) / (ref[k] * ref[k] + kEps); });
+}
+inline double rel_mse(const luz::Film& f, const std::vector<double>& ref, const PixelMask& keep = {}) {
+  return rel_mse(f.mean(), ref, keep);
 }
 
 inline luz::Film render(const luz::Scene& s, int threads, double& seconds) {
@@ -49,6 +65,10 @@ inline uint64_t file_hash(const std::string& path) {
 struct Reference {
   std::vector<double> mean, var;
   double noise = 0;
+  // Its share over the pixels of `keep`.
+  double noise_over(const PixelMask& keep) const {
+    return mean_over(keep, mean.size(), [&](size_t k) { return var[k] / (mean[k] * mean[k] + kEps); });
+  }
 };
 
 // Loads `name` (.pfm, and its .var.pfm) from the cache, or renders `s` and
@@ -76,8 +96,7 @@ inline Reference cached_reference(const std::string& name, const luz::Scene& s, 
     luz::write_image(var_path.string(), luz::Image{f.width, f.height, std::vector<float>(r.var.begin(), r.var.end())});
     std::printf("reference: %u spp in %.1f s, cached as %s\n", s.settings.spp, t, ref_path.c_str());
   }
-  for (size_t k = 0; k < r.mean.size(); ++k) r.noise += r.var[k] / (r.mean[k] * r.mean[k] + kEps);
-  r.noise /= double(r.mean.size());
+  r.noise = r.noise_over({});
   return r;
 }
 
