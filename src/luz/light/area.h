@@ -113,12 +113,8 @@ struct ParallelogramLight : PlanarLight {
   uint32_t prim = 0, prim2 = 0;  // its two triangles
   Vec3 corner, e1, e2;           // points corner + u e1 + v e2
 
-  // By solid angle where it is a rectangle (rectangle_sample), else by area.
   LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const LightData&) const {
-    return area_light_sample(rectangle_sample(corner, e1, e2, normal, area, ctx.p, u), radiance);
-  }
-  LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const LightData&) const {
-    return rectangle_pdf(corner, e1, e2, normal, area, ctx.p, h.n, wi, h.dist);
+    return area_light_sample(parallelogram_sample(corner, e1, e2, normal, area, ctx.p, u), radiance);
   }
   LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData&, Vec3, float) const {
     return area_light_le_sample(parallelogram_area_sample(corner, e1, e2, normal, area, u_pos), radiance, u_dir);
