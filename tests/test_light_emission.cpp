@@ -193,7 +193,7 @@ TEST(LightEmission, PointAndSpotDirectionsChi2) {
     // Bins up to the rim the light defines, so that none is cut by it.
     chi2::SphereGrid g = grid(spot_axis(), std::acos(double(l.cos_cutoff)));
     g.edge_tol = 1e-6;
-    check_directions(what, l, nullptr, g, seed, direction, [&](D3 w) { return spot_pdf(l, w); });
+    check_directions(what, l, nullptr, g, seed, direction, [&l = l](D3 w) { return spot_pdf(l, w); });
   }
   // An uneven scale: the cone is elliptic in the world, and cuts bins.
   const SpotLight s = spot(40, 30, kSpotRotation, kSpotScale);

@@ -212,7 +212,7 @@ TEST_F(Mitsuba, CubeHasOutwardNormals) {
     luz::Scene s = load(scene("<shape type=\"cube\"><transform name=\"to_world\">" + std::string(transform) +
                               "<translate value=\"5, 6, 7\"/></transform></shape>\n"));
     ASSERT_EQ(s.num_triangles(), 12u);
-    Vec3 center(5, 6, 7);
+    Vec3 center{5, 6, 7};
     for (uint32_t t = 0; t < 12; ++t) {
       Vec3 c = centroid(s, t) - center;
       // Face centroids of [-1,1]³ lie at distance 2/3·√(1 + 1/9·…) from the center; the normal points away.

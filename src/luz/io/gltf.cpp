@@ -86,21 +86,24 @@ int index_of(const tinygltf::Value& v) {
 }
 
 
+// A check tinygltf 2.7 lacks: that an image's bufferView lies inside its
+// buffer (else tinygltf hands over bytes from past the buffer's end).
+bool view_inside_buffer(const tinygltf::Model& m, const tinygltf::Image& image) {
+  if (image.bufferView < 0) return true;  // tinygltf checked the indices
+  const tinygltf::BufferView& v = m.bufferViews[size_t(image.bufferView)];
+  const size_t buffer = m.buffers[size_t(v.buffer)].data.size();
+  return v.byteOffset <= buffer && v.byteLength <= buffer - v.byteOffset;
+}
+
 // tinygltf's image decoder, replaced: Luz's own (io/image.h: it refuses
-// files that Debian's stb_image mishandles), after a check tinygltf 2.7
-// lacks: that an image's bufferView lies inside its buffer (else the
-// decoder reads past the buffer's end). `model` is the model being read.
+// files that Debian's stb_image mishandles), after view_inside_buffer.
+// `model` is the model being read.
 bool decode_image(tinygltf::Image* image, int index, std::string* err, std::string*, int, int,
                   const unsigned char* bytes, int size, void* model) {
   const std::string where = "images[" + std::to_string(index) + "]";
-  if (image->bufferView >= 0) {  // tinygltf checked the indices
-    const auto* m = static_cast<const tinygltf::Model*>(model);
-    const tinygltf::BufferView& v = m->bufferViews[size_t(image->bufferView)];
-    const size_t buffer = m->buffers[size_t(v.buffer)].data.size();
-    if (v.byteOffset > buffer || v.byteLength > buffer - v.byteOffset) {
-      *err += where + ": bufferView " + std::to_string(image->bufferView) + " reaches past the end of its buffer\n";
-      return false;
-    }
+  if (!view_inside_buffer(*static_cast<const tinygltf::Model*>(model), *image)) {
+    *err += where + ": bufferView " + std::to_string(image->bufferView) + " reaches past the end of its buffer\n";
+    return false;
   }
   try {
     const Image8 img = decode_image8(where, bytes, size_t(std::max(size, 0)));
@@ -188,10 +191,13 @@ class GltfLoader {
   };
   std::vector<PendingImage> pending_;
 
+  // An image's bytes are not copied when its bufferView reaches past its
+  // buffer (they would be read from there; decode_image refuses it).
   static bool keep_image(tinygltf::Image* image, int index, std::string* err, std::string*, int req_width,
                          int req_height, const unsigned char* bytes, int size, void* loader) {
-    static_cast<GltfLoader*>(loader)->pending_.push_back(
-        {index, req_width, req_height, image->name, err ? *err : "", {bytes, bytes + size}});
+    GltfLoader& self = *static_cast<GltfLoader*>(loader);
+    if (!view_inside_buffer(self.model_, *image)) size = 0;
+    self.pending_.push_back({index, req_width, req_height, image->name, err ? *err : "", {bytes, bytes + size}});
     return true;
   }
 

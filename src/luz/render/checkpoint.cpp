@@ -52,7 +52,7 @@ class Hasher {
       h_ = hash_combine(h_, w);
     }
     uint64_t w = 0;
-    std::memcpy(&w, p, n);
+    if (n > 0) std::memcpy(&w, p, n);  // p may be null (an empty vector's data())
     h_ = hash_combine(h_, w);
   }
   // Structs hashed by value: padding bytes zeroed first, as they hold
@@ -244,7 +244,8 @@ RenderFields render_fields(const Scene& scene, RenderDevice device) {
 
 std::string fields_mismatch(const RenderFields& was, const RenderFields& now) {
   for (const auto& [name, value] : was) {
-    auto it = std::find_if(now.begin(), now.end(), [&](const auto& p) { return p.first == name; });
+    // &n = name: clang before 16 cannot capture a structured binding.
+    auto it = std::find_if(now.begin(), now.end(), [&n = name](const auto& p) { return p.first == n; });
     if (it == now.end()) return name + ": the checkpoint has " + value + ", this render none";
     if (it->second != value) {
       if (!value.empty() && value[0] == '#')
@@ -253,7 +254,7 @@ std::string fields_mismatch(const RenderFields& was, const RenderFields& now) {
     }
   }
   for (const auto& [name, value] : now)
-    if (std::none_of(was.begin(), was.end(), [&](const auto& p) { return p.first == name; }))
+    if (std::none_of(was.begin(), was.end(), [&n = name](const auto& p) { return p.first == n; }))
       return name + ": the checkpoint has none, this render " + value;
   return "";
 }

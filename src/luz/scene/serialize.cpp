@@ -56,7 +56,7 @@ class Reader {
   explicit Reader(const std::string& in) : p_(in.data()), end_(in.data() + in.size()) {}
   void bytes(void* to, size_t n) {
     if (size_t(end_ - p_) < n) throw std::runtime_error("a broadcast scene ends early");
-    std::memcpy(to, p_, n);
+    if (n > 0) std::memcpy(to, p_, n);  // to may be null (an empty vector's data())
     p_ += n;
   }
   template <class T>
