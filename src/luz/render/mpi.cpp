@@ -64,6 +64,7 @@ class Unpacker {
  private:
   void take(void* to, size_t n) {
     if (size_t(end_ - p_) < n) throw std::runtime_error("MPI: a message shorter than its contents");
+    if (n == 0) return;  // an empty array's data() may be null: no memcpy from or to it
     std::memcpy(to, p_, n);
     p_ += n;
   }
