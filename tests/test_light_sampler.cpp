@@ -17,6 +17,8 @@
 //    per-pixel variances (independent seeds, z-test, Šidák).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <cfloat>
 #include <cmath>
 #include <vector>
@@ -24,6 +26,7 @@
 #include "chi2.h"
 #include "luz/device/cpu/render.h"
 #include "luz/io/load.h"
+#include "stat_helpers.h"
 
 using namespace luz;
 
@@ -242,11 +245,14 @@ Scene many_light_box(uint64_t seed, int n_tri, bool infinite, int res = 16) {
 }
 
 // Shading contexts: points in and around the box, with a random normal, or
-// none (every fourth: a BSDF-sampled vertex's context).
+// none (every fourth: a BSDF-sampled vertex's context). Of those with a
+// normal, a third transmit (no hemisphere), a third reflect light from the
+// normal's side, a third from the side of a geometric normal tilted from it.
 LightSampleContext random_ctx(uint64_t i) {
   const Vec3 p{-100 + 760 * chi2::rand01(99, i, 0), -100 + 750 * chi2::rand01(99, i, 1), -100 + 760 * chi2::rand01(99, i, 2)};
   const Vec3 n = i % 4 == 3 ? Vec3{} : random_unit(99, i, 3);
-  return {p, n, n};
+  const Vec3 h = i % 4 == 3 || i % 3 == 0 ? Vec3{} : i % 3 == 1 ? n : normalize(n + random_unit(99, i, 5) * 0.6f);
+  return {p, n, n, h};
 }
 
 LightSampler sampler_of(Scene& s, LightSamplerType type) {
@@ -254,18 +260,23 @@ LightSampler sampler_of(Scene& s, LightSamplerType type) {
   return s.view().lights.sampler;
 }
 
+// The number of levels of the BVH (its deepest leaf's).
 int tree_depth(const LightBvhData& d) {
   int depth = 0;
-  for (uint64_t t : d.trails) {
-    if (t & (kTrailInfinite | kTrailNone)) continue;
-    depth = std::max(depth, 64 - __builtin_clzll(t | 1));
+  std::vector<std::pair<uint32_t, int>> stack = {{0u, 1}};
+  while (!d.nodes.empty() && !stack.empty()) {
+    const auto [k, level] = stack.back();
+    stack.pop_back();
+    depth = std::max(depth, level);
+    for (int i = 0; i < kLightBvhWidth; ++i)
+      if (d.nodes[k].phi[i] > 0.f && !(d.nodes[k].child[i] & kLightBvhLeaf))
+        stack.push_back({d.nodes[k].child[i] & kLightBvhIndex, level + 1});
   }
-  return depth + 1;
+  return depth;
 }
 
-// The probability that the BVH's walk ends at an inner node whose children
-// both have importance 0 at ctx (sample() then returns no light), or at a
-// one-light root without importance.
+// The probability that the BVH's walk ends at a node none of whose children
+// has importance at ctx (sample() then returns no light).
 double none_mass(const BvhLightSampler& b, const LightSampleContext& ctx) {
   if (b.num_nodes == 0) return 1.0 - b.p_infinite;
   double none = 0;
@@ -273,17 +284,17 @@ double none_mass(const BvhLightSampler& b, const LightSampleContext& ctx) {
   while (!stack.empty()) {
     const auto [k, mass] = stack.back();
     stack.pop_back();
-    if (b.nodes[k].leaf) {
-      if (k == 0 && !(b.nodes[0].bounds.importance(ctx.p, ctx.ns) > 0.f)) none += mass;
-      continue;
-    }
-    const float p0 = b.first_child_p(k, ctx.p, ctx.ns);
-    if (p0 < 0.f) {
+    float imp[kLightBvhWidth];
+    BvhLightSampler::importances(b.nodes[k], ctx, imp);
+    double total = 0;
+    for (float x : imp) total += x;
+    if (!(total > 0)) {
       none += mass;
       continue;
     }
-    stack.push_back({k + 1, mass * p0});
-    stack.push_back({b.nodes[k].child, mass * (1.0 - p0)});
+    for (int i = 0; i < kLightBvhWidth; ++i)
+      if (imp[i] > 0.f && !(b.nodes[k].child[i] & kLightBvhLeaf))
+        stack.push_back({b.nodes[k].child[i] & kLightBvhIndex, mass * imp[i] / total});
   }
   return none;
 }
@@ -302,8 +313,9 @@ TEST_P(LightSamplers, PmfsSumToOne) {
   ASSERT_EQ(ls.n, n);
   ASSERT_GT(n, 400u);
   const int depth = GetParam() == LightSamplerType::Bvh ? tree_depth(scene_->light_bvh) : 1;
-  // Per level, the complement 1 - p and the product each round once.
-  const double tol = (2.0 * depth + 4.0) * 0x1p-24;
+  // Per level, the sum of the children's importances rounds up to width - 1
+  // times, their ratio and the product once each.
+  const double tol = ((kLightBvhWidth + 1.0) * depth + 4.0) * 0x1p-24;
   double worst = 0, worst_none = 0;
   for (uint64_t i = 0; i < 300; ++i) {
     const LightSampleContext ctx = random_ctx(i);
@@ -371,8 +383,9 @@ TEST_P(LightSamplers, LightsThatCanLightThePointHavePmf) {
       bool can = false;
       for (uint64_t k = 0; k < 6 && !can; ++k) {
         const LightSample s = sample_li(lights[l], ctx, chi2::rand2(23, i * 64 + k, l), lights.data);
-        const bool facing = ctx.ns.x == 0.f && ctx.ns.y == 0.f && ctx.ns.z == 0.f ? true : dot(s.wi, ctx.ns) != 0.f;
-        can = s.pdf > 0.f && !is_black(s.radiance) && facing;
+        const bool facing = is_black(ctx.ns) || dot(s.wi, ctx.ns) != 0.f;
+        const bool above = is_black(ctx.hemisphere) || dot(s.wi, ctx.hemisphere) > 0.f;
+        can = s.pdf > 0.f && !is_black(s.radiance) && facing && above;
       }
       if (can) {
         ++lit;
@@ -403,6 +416,138 @@ TEST(LightSamplerTypes, OneLightIsChosenWithoutTables) {
   }
 }
 
+// The collapsed tree's shape, for light sets the SAH splits well, badly or
+// not at all (every light at one point): each light with power sits in one
+// slot its trail leads to; a node whose subtree holds m lights has min(m, 8)
+// children (leaves of several lights); every slot's sphere holds its lights'
+// boxes, its phi is their sum and its cone holds their cones; the levels fit
+// the trails. And the sampler on it: pmfs sum to 1, sample() agrees with pmf().
+struct TreeCase {
+  const char* name;
+  int n;
+  int layout;  // 0: random; 1: all at one point; 2: on a line, alternately facing
+};
+
+Scene tree_case_scene(const TreeCase& c) {
+  Scene s = load_scene(LUZ_SOURCE_DIR "/scenes/cornell-box.xml", {{"res", "8"}});
+  for (int k = 0; k < c.n; ++k) {
+    Vec3 o = c.layout == 1 ? Vec3{278, 270, 280} : c.layout == 2 ? Vec3{20.f + 0.05f * k, 270, 280} : Vec3{
+        20 + 516 * chi2::rand01(5, k, 0), 20 + 508 * chi2::rand01(5, k, 1), 20 + 519 * chi2::rand01(5, k, 2)};
+    const Vec3 a = c.layout == 2 ? Vec3{0, 1, 0} : random_unit(5, k, 3), b0 = random_unit(5, k, 5);
+    const Vec3 b = c.layout == 2 ? Vec3{0, 0, k % 2 ? 1.f : -1.f} : normalize(cross(a, b0));
+    const float size = c.layout == 1 ? 5.f : 1.f + 10.f * chi2::rand01(5, k, 7);
+    const Color e = Color{1, 1, 1} * (0.1f + chi2::rand01(5, k, 8));
+    s.add_mesh({o, o + a * size, o + b * size}, {}, {0, 1, 2}, 0, &e);
+  }
+  s.compile();
+  return s;
+}
+
+TEST(LightBvh, CollapsedTreeShape) {
+  const TreeCase cases[] = {{"two", 1, 0},      {"eight", 7, 0},        {"nine", 8, 0},   {"random 64", 63, 0},
+                            {"random 3000", 3000, 0}, {"one point", 300, 1}, {"a line", 500, 2}};
+  for (const TreeCase& c : cases) {
+    SCOPED_TRACE(c.name);
+    Scene s = tree_case_scene(c);
+    const LightBvhData& d = s.light_bvh;
+    const uint32_t n = uint32_t(s.lights.size());
+    ASSERT_EQ(n, uint32_t(c.n) + 1);
+    // Follow each light's trail.
+    std::vector<std::vector<std::pair<uint32_t, int>>> path(n);  // (node, slot) from the root
+    for (uint32_t l = 0; l < n; ++l) {
+      uint64_t t = d.trails[l];
+      ASSERT_FALSE(t & (kTrailInfinite | kTrailNone));
+      uint32_t k = 0;
+      for (int level = 0;; ++level) {
+        ASSERT_LT(level, kLightTrailLevels);
+        ASSERT_LT(k, d.nodes.size());
+        const int slot = int(t & (kLightBvhWidth - 1));
+        path[l].push_back({k, slot});
+        const uint32_t child = d.nodes[k].child[slot];
+        ASSERT_GT(d.nodes[k].phi[slot], 0.f);
+        if (child & kLightBvhLeaf) {
+          ASSERT_EQ(child & kLightBvhIndex, l);
+          break;
+        }
+        k = child & kLightBvhIndex;
+        t >>= kLightBvhSlotBits;
+      }
+    }
+    // Per slot: the lights under it.
+    std::vector<std::array<std::vector<uint32_t>, kLightBvhWidth>> under(d.nodes.size());
+    for (uint32_t l = 0; l < n; ++l)
+      for (const auto& [k, slot] : path[l]) under[k][size_t(slot)].push_back(l);
+    int several = 0;
+    for (size_t k = 0; k < d.nodes.size(); ++k) {
+      const LightBvhNode& nd = d.nodes[k];
+      size_t lights = 0;
+      int used = 0, leaves = 0;
+      for (int i = 0; i < kLightBvhWidth; ++i) {
+        lights += under[k][size_t(i)].size();
+        if (!(nd.phi[i] > 0.f)) {
+          EXPECT_TRUE(under[k][size_t(i)].empty());
+          continue;
+        }
+        ++used;
+        leaves += (nd.child[i] & kLightBvhLeaf) != 0;
+        ASSERT_FALSE(under[k][size_t(i)].empty()) << "node " << k << " slot " << i << " reaches no light";
+        const Vec3 centre{nd.cx[i], nd.cy[i], nd.cz[i]}, w{nd.wx[i], nd.wy[i], nd.wz[i]};
+        double phi_sum = 0;
+        for (uint32_t l : under[k][size_t(i)]) {
+          const LightBounds b = *bounds(s.lights[l]);
+          phi_sum += b.phi;
+          for (int corner = 0; corner < 8; ++corner) {
+            const Vec3 q{corner & 1 ? b.hi.x : b.lo.x, corner & 2 ? b.hi.y : b.lo.y, corner & 4 ? b.hi.z : b.lo.z};
+            EXPECT_LE(length(q - centre), nd.radius[i] * (1 + 1e-6f)) << "node " << k << " slot " << i << " light " << l;
+          }
+          // The light's cone in the slot's: the angle between the axes plus
+          // the light's spread within the slot's (to float rounding).
+          if (nd.cos_o[i] > -1.f) {
+            // (the angle between the axes by atan2: acos loses it near 0)
+            const double gap = std::atan2(length(cross(w, b.w)), dot(w, b.w)) + std::acos(double(b.cos_theta_o));
+            EXPECT_LE(gap, std::acos(double(nd.cos_o[i])) + 1e-5) << "node " << k << " slot " << i << " light " << l;
+          }
+          EXPECT_GE(nd.cos_e[i], -1.f);
+          EXPECT_LE(nd.cos_e[i], b.cos_theta_e);
+        }
+        EXPECT_NEAR(nd.phi[i], phi_sum, 1e-5 * phi_sum);
+      }
+      EXPECT_EQ(size_t(used), std::min<size_t>(lights, kLightBvhWidth)) << "node " << k;
+      several += leaves >= 2;
+    }
+    if (n >= 8) EXPECT_GT(several, 0) << "no node holds several lights";
+    EXPECT_LE(tree_depth(d), kLightTrailLevels);
+    // The sampler on it.
+    const LightSampler ls = sampler_of(s, LightSamplerType::Bvh);
+    const double tol = ((kLightBvhWidth + 1.0) * tree_depth(d) + 4.0) * 0x1p-24;
+    for (uint64_t i = 0; i < 40; ++i) {
+      const LightSampleContext ctx = random_ctx(5000 + i);
+      double sum = none_mass(ls.bvh, ctx);
+      for (uint32_t l = 0; l < n; ++l) sum += ls.pmf(ctx, l);
+      EXPECT_NEAR(sum, 1.0, tol) << "context " << i;
+      for (uint64_t j = 0; j < 50; ++j) {
+        float u = chi2::rand01(31, i * 50 + j, 0);
+        const SampledLight sl = ls.sample(ctx, u);
+        if (sl.pmf == 0.f) continue;
+        ASSERT_EQ(ls.pmf(ctx, sl.light), sl.pmf) << "context " << i;
+        ASSERT_TRUE(u >= 0.f && u < 1.f);
+      }
+    }
+  }
+}
+
+// `s` rendered on 2 threads with light sampler t and the given seed.
+Film render_with(Scene s, LightSamplerType t, uint64_t seed) {
+  s.settings.light_sampler = t;
+  s.settings.seed = seed;
+  CpuRenderOptions opt;
+  opt.threads = 2;
+  RenderStats stats;
+  Film f = render_cpu(s, opt, stats);
+  EXPECT_EQ(stats.discarded, 0u);
+  return f;
+}
+
 // The many-light box rendered with each sampler: the same expected image.
 TEST(LightSamplerRender, BvhMeanMatchesPower) {
   Scene s = many_light_box(2, 150, true, 24);
@@ -411,13 +556,7 @@ TEST(LightSamplerRender, BvhMeanMatchesPower) {
   double mean[2][3] = {}, var[2][3] = {};
   int v = 0;
   for (LightSamplerType t : {LightSamplerType::Power, LightSamplerType::Bvh}) {
-    s.settings.light_sampler = t;
-    s.settings.seed = 100 + v;
-    CpuRenderOptions opt;
-    opt.threads = 2;
-    RenderStats stats;
-    const Film f = render_cpu(s, opt, stats);
-    EXPECT_EQ(stats.discarded, 0u);
+    const Film f = render_with(s, t, 100 + v);
     const std::vector<float> m = f.mean();
     const std::vector<double> vm = f.variance_of_mean();
     const double pixels = double(f.count.size());
@@ -439,3 +578,77 @@ TEST(LightSamplerRender, BvhMeanMatchesPower) {
 
 }  // namespace
 
+
+namespace {
+
+// MIS weighs a BSDF-sampled ray that hits an emitter by the light-selection
+// pmf the previous vertex's next-event estimate had (path.h's PathState::
+// prev_p, prev_ns, prev_hemisphere). The BVH's pmf depends on the shading
+// normal, so a wrong context there biases the image; power selection's pmf
+// depends on neither, so its image is the reference. The scene makes the
+// BVH's pmf vary strongly with the normal where MIS weighs both strategies:
+// the box's light off, the whole ceiling a dim emitter (BSDF sampling finds
+// it as often as light sampling does) and a small bright one low on the left
+// wall, which the floor sees at grazing angles: with the floor's normal it
+// gets a small share of the pmf, without one most of it. Direct light only
+// (max_depth 2: every emitter hit after the camera's is weighed by MIS).
+// 8×8-pixel block means per channel, z-test with the variances of both
+// images, Šidák over blocks and channels.
+Scene grazing_and_overhead_lights(LightSamplerType t) {
+  Scene s = load_scene(LUZ_SOURCE_DIR "/scenes/cornell-box.xml",
+                       {{"res", "64"}, {"integrator", "path"}, {"max_depth", "2"}});
+  for (Light& l : s.lights)
+    if (l.type == LightType::Parallelogram) l.parallelogram.radiance = {};
+    else if (l.type == LightType::Triangle) l.triangle.radiance = {};
+  // A square of half-size `half` centred at c on a wall of normal axis
+  // `axis`, facing the side `inward` (±1) of it.
+  auto quad = [&](Vec3 c, int axis, float inward, float half, Color e) {
+    std::vector<Vec3> p(4, c);
+    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+    const float da[4] = {-1, 1, 1, -1}, db[4] = {-1, -1, 1, 1};
+    for (int k = 0; k < 4; ++k) (&p[k].x)[a] += half * da[k], (&p[k].x)[b] += half * db[k];
+    Vec3 in{};
+    (&in.x)[axis] = inward;
+    if (dot(cross(p[1] - p[0], p[2] - p[0]), in) < 0.f) std::swap(p[1], p[3]);
+    s.add_mesh(p, {}, {0, 1, 2, 0, 2, 3}, 0, &e);
+  };
+  quad({278, 547, 280}, 1, -1, 250, {1.5f, 1.5f, 3});  // the ceiling, blue
+  quad({2, 45, 280}, 0, 1, 12, {1500, 100, 100});      // low on the left wall, red
+  s.compile();
+  s.settings.light_sampler = t;
+  s.settings.sampler = SamplerType::Independent;  // per-pixel variance: unbiased for the mean's
+  return s;
+}
+
+TEST(LightSamplerRender, MisUsesThePreviousVertexContext) {
+  constexpr int kBlock = 16;
+  luz_test::Blocks blocks[2];
+  int v = 0;
+  for (LightSamplerType t : {LightSamplerType::Power, LightSamplerType::Bvh}) {
+    Scene s = grazing_and_overhead_lights(t);
+    s.settings.spp = 256;
+    blocks[v] = luz_test::make_blocks(render_with(s, t, 300 + v), kBlock);
+    ++v;
+  }
+  luz_test::Blocks& a = blocks[0];
+  luz_test::Blocks& b = blocks[1];
+  const double zmax = luz_test::sidak_z(1e-3, 3.0 * a.bw * a.bh);
+  double worst = 0, sum_z2 = 0;
+  std::array<int, 3> worst_at{};
+  int n = 0;
+  for (int by = 0; by < a.bh; ++by)
+    for (int bx = 0; bx < a.bw; ++bx)
+      for (int c = 0; c < 3; ++c) {
+        const double m = 0.5 * (a.m(bx, by, c) + b.m(bx, by, c)), floor = luz_test::rounding_floor(m);
+        const double z = (b.m(bx, by, c) - a.m(bx, by, c)) /
+                         std::sqrt(a.v(bx, by, c) + b.v(bx, by, c) + 2 * floor * floor);
+        if (std::fabs(z) > worst) worst = std::fabs(z), worst_at = {bx, by, c};
+        sum_z2 += z * z;
+        ++n;
+      }
+  std::printf("bvh against power: worst block |z| %.2f (threshold %.2f) at block (%d, %d) channel %d, mean z² %.2f over "
+              "%d\n", worst, zmax, worst_at[0], worst_at[1], worst_at[2], sum_z2 / n, n);
+  EXPECT_LT(worst, zmax);
+}
+
+}  // namespace

@@ -2,7 +2,8 @@
 // Kulla 2018, "Importance Sampling of Many Lights with Adaptive Tree
 // Splitting"; pbrt-v4's LightBounds): where they are (a box), how strongly
 // they emit (phi), and toward where (a cone of normals of axis w and half
-// angle θo, each normal's emission spread θe around it).
+// angle θo, each normal's emission spread θe around it). The BVH weighs them
+// at a shading point by BvhLightSampler::importances (light_bvh.h).
 #pragma once
 
 #include <cmath>
@@ -21,50 +22,6 @@ struct LightBounds {
   float cos_theta_o = 1.f;  // the normals' cone
   float cos_theta_e = 0.f;  // emission around each normal (0: a hemisphere)
   bool two_sided = false;
-
-  // An estimate of the irradiance the lights give at p, on a surface of
-  // normal n (zero: no surface, a direction-free point), that is 0 only where
-  // no light inside emits toward p or none is above the surface: pbrt-v4's
-  // LightBounds::Importance, term by term.
-  LUZ_INLINE float importance(Vec3 p, Vec3 n) const {
-    const Vec3 pc = (lo + hi) * 0.5f, d = p - pc;
-    const float dc2 = length_squared(d);
-    // The distance, clamped as pbrt does so that points inside the box are
-    // not infinitely important; 0 only at a point light itself (no light
-    // comes from there).
-    const float d2 = max(dc2, 0.5f * length(hi - lo));
-    if (!(d2 > 0.f)) return 0.f;
-    const Vec3 wi = dc2 > 0.f ? d * (1.f / sqrtf(dc2)) : Vec3{};  // from the lights toward p
-    float cos_w = dot(w, wi);
-    if (two_sided) cos_w = fabsf(cos_w);
-    const float sin_w = safe_sqrt(1.f - cos_w * cos_w);
-    // The cone of directions the box subtends from p (its bounding sphere;
-    // every direction from inside it).
-    const float r2 = 0.25f * length_squared(hi - lo);
-    const float cos_b = dc2 < r2 ? -1.f : safe_sqrt(1.f - r2 / dc2);
-    const float sin_b = safe_sqrt(1.f - cos_b * cos_b);
-    // θ' = max(0, θw - θo - θb), by cosines of clamped differences.
-    const float sin_o = safe_sqrt(1.f - cos_theta_o * cos_theta_o);
-    const float cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_theta_o);
-    const float sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_theta_o);
-    const float cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
-    if (cos_p <= cos_theta_e) return 0.f;
-    float imp = phi * cos_p / d2;
-    if (n.x != 0.f || n.y != 0.f || n.z != 0.f) {
-      // θi: the light's direction against the surface normal, less θb.
-      const float cos_i = fabsf(dot(wi, n)), sin_i = safe_sqrt(1.f - cos_i * cos_i);
-      imp *= cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
-    }
-    return max(imp, 0.f);
-  }
-
-  // cos(max(0, a - b)) and sin(max(0, a - b)) from the angles' sines and cosines.
-  LUZ_INLINE static float cos_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
-    return cos_a > cos_b ? 1.f : cos_a * cos_b + sin_a * sin_b;
-  }
-  LUZ_INLINE static float sin_sub_clamped(float sin_a, float cos_a, float sin_b, float cos_b) {
-    return cos_a > cos_b ? 0.f : sin_a * cos_b - cos_a * sin_b;
-  }
 };
 
 // The smallest cone pbrt-v4's DirectionCone Union finds around two cones

@@ -9,9 +9,11 @@ namespace luz {
 namespace {
 
 constexpr int kBuckets = 12;
-// Below this depth the SAH splits; deeper, halves by count, so no trail
-// passes kLightTrailDepth bits for up to 2^32 lights.
-constexpr int kSahDepth = kLightTrailDepth - 32;
+// Below this depth the SAH splits; deeper, halves by count, so no leaf is
+// deeper than kSahDepth + 32 for up to 2^32 lights, nor its trail longer than
+// kLightTrailLevels (one wide level per three binary ones).
+constexpr int kSahDepth = kLightBvhSlotBits * kLightTrailLevels - 32;
+static_assert(kLightBvhSlotBits * kLightTrailLevels <= 62, "trails leave their top two bits to the flags");
 
 struct BuildLight {
   LightBounds b;
@@ -35,17 +37,26 @@ double cost(const LightBounds& b, const LightBounds& all, int dim) {
   return double(b.phi) * m_omega * kr * area;
 }
 
+// The binary tree before its collapse: a leaf holds one light.
+struct BinaryNode {
+  LightBounds b;
+  uint32_t left = 0, right = 0;  // inner: the children
+  uint32_t light = 0;            // leaf: the light
+  bool leaf = false;
+};
+
 struct Builder {
   std::vector<BuildLight>& items;
-  LightBvhData& out;
+  std::vector<BinaryNode> nodes;
 
   // Appends the subtree over items[start, end) and returns its root's index.
-  uint32_t build(size_t start, size_t end, uint64_t trail, int depth) {
-    const uint32_t node = uint32_t(out.nodes.size());
-    out.nodes.emplace_back();
+  uint32_t build(size_t start, size_t end, int depth) {
+    const uint32_t node = uint32_t(nodes.size());
+    nodes.emplace_back();
     if (end - start == 1) {
-      out.nodes[node] = {items[start].b, items[start].light, 1u};
-      out.trails[items[start].light] = trail;
+      nodes[node].b = items[start].b;
+      nodes[node].light = items[start].light;
+      nodes[node].leaf = true;
       return node;
     }
     LightBounds all = items[start].b;
@@ -105,9 +116,77 @@ struct Builder {
       std::nth_element(items.begin() + long(start), items.begin() + long(mid), items.begin() + long(end),
                        [&](const BuildLight& a, const BuildLight& b) { return a.centroid[dim] < b.centroid[dim]; });
     }
-    build(start, mid, trail, depth + 1);
-    const uint32_t second = build(mid, end, trail | (uint64_t(1) << depth), depth + 1);
-    out.nodes[node] = {all, second, 0u};
+    const uint32_t left = build(start, mid, depth + 1);
+    const uint32_t right = build(mid, end, depth + 1);
+    nodes[node].b = all;
+    nodes[node].left = left;
+    nodes[node].right = right;
+    return node;
+  }
+};
+
+// Writes binary node `from`'s bounds into slot i of a wide node: the box as
+// its centre and a radius rounded up to hold its corners.
+void set_slot(LightBvhNode& w, int i, const LightBounds& b) {
+  const Vec3 c = (b.lo + b.hi) * 0.5f;
+  double r2 = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double e = std::max(double(c[a]) - b.lo[a], double(b.hi[a]) - c[a]);
+    r2 += e * e;
+  }
+  w.cx[i] = c.x, w.cy[i] = c.y, w.cz[i] = c.z;
+  w.radius[i] = std::nextafter(float(std::sqrt(r2)), INFINITY) * (r2 > 0 ? 1.f : 0.f);
+  w.wx[i] = b.w.x, w.wy[i] = b.w.y, w.wz[i] = b.w.z;
+  w.phi[i] = b.phi;
+  w.cos_o[i] = b.cos_theta_o;
+  w.sin_o[i] = float(std::sqrt(std::max(0.0, 1.0 - double(b.cos_theta_o) * b.cos_theta_o)));
+  w.cos_e[i] = b.cos_theta_e;
+}
+
+// Collapses the binary tree three levels at a time: a wide node's children
+// are the binary descendants three levels down (or the leaves above them),
+// then, while slots are free, the inner ones of most power are opened
+// further. So every wide level descends at least three binary ones and the
+// trails fit kLightTrailLevels.
+struct Collapser {
+  const std::vector<BinaryNode>& bin;
+  LightBvhData& out;
+
+  uint32_t collapse(uint32_t root, uint64_t trail, int level) {
+    uint32_t front[kLightBvhWidth];
+    int n = 1;
+    front[0] = root;
+    auto open = [&](int i) {
+      const BinaryNode& b = bin[front[i]];
+      front[i] = b.left;
+      front[n++] = b.right;
+    };
+    for (int round = 0; round < kLightBvhSlotBits; ++round)
+      for (int i = 0, m = n; i < m; ++i)
+        if (!bin[front[i]].leaf) open(i);
+    while (n < kLightBvhWidth) {
+      int best = -1;
+      for (int i = 0; i < n; ++i)
+        if (!bin[front[i]].leaf && (best < 0 || bin[front[i]].b.phi > bin[front[best]].b.phi)) best = i;
+      if (best < 0) break;
+      open(best);
+    }
+    const uint32_t node = uint32_t(out.nodes.size());
+    out.nodes.emplace_back();
+    for (int i = 0; i < n; ++i) {
+      const BinaryNode& b = bin[front[i]];
+      const uint64_t t = trail | (uint64_t(i) << (kLightBvhSlotBits * level));
+      uint32_t child;
+      if (b.leaf) {
+        child = b.light | kLightBvhLeaf;
+        out.trails[b.light] = t;
+      } else {
+        child = collapse(front[i], t, level + 1);
+      }
+      LightBvhNode& w = out.nodes[node];
+      set_slot(w, i, b.b);
+      w.child[i] = child | (b.b.two_sided ? kLightBvhTwoSided : 0u);
+    }
     return node;
   }
 };
@@ -129,8 +208,10 @@ LightBvhData build_light_bvh(const Light* lights, const double* power, uint32_t 
     }
   }
   if (!items.empty()) {
-    out.nodes.reserve(2 * items.size() - 1);
-    Builder{items, out}.build(0, items.size(), 0, 0);
+    Builder b{items, {}};
+    b.nodes.reserve(2 * items.size() - 1);
+    b.build(0, items.size(), 0);
+    Collapser{b.nodes, out}.collapse(0, 0, 0);
   }
   const size_t choices = out.infinite.size() + (items.empty() ? 0 : 1);
   out.p_infinite = choices ? float(double(out.infinite.size()) / double(choices)) : 0.f;

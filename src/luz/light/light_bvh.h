@@ -1,39 +1,148 @@
 // Light selection by a light BVH (Conty Estevez and Kulla 2018, as pbrt-v4's
-// BVHLightSampler): the finite lights with power in a binary tree of
-// LightBounds, walked from the root choosing each child in proportion to
-// its importance at the shading point, so nearby lights facing the point are
-// chosen more often than the power alone would choose them. The infinite
-// lights (environments, directional) with power are chosen apart, uniformly,
-// each as likely as the whole tree (pbrt's pInfinite).
+// BVHLightSampler): the finite lights with power in a tree of light bounds,
+// walked from the root choosing each child in proportion to its importance
+// at the shading point (pbrt-v4's LightBounds::Importance), so nearby lights
+// facing the point are chosen more often than the power alone would choose
+// them. The infinite lights (environments, directional) with power are
+// chosen apart, uniformly, each as likely as the whole tree (pbrt's
+// pInfinite).
 //
-// Nodes are stored depth first: a node's first child follows it, the second
-// is at `child`. pmf(ctx, light) walks the light's path again from its bit
-// trail (bit k: the child taken at depth k, 1 = second), computing the same
-// products in the same order as sample(), so both give the same float.
+// The tree is 8 wide (a binary SAH tree collapsed three levels at a time, as
+// Embree's BVH8): a node holds its children's bounds as arrays of 8, so one
+// pass of SIMD lanes (AVX2 on the CPU) weighs all of them, and about a third
+// of the binary tree's levels are walked; a child is a node or a light (the
+// leaves: a node may hold up to 8 lights). Nodes are stored depth first.
+// pmf(ctx, light) walks the light's path again from its trail (3 bits per
+// level: the child slot taken), computing the same products in the same
+// order as sample(), so both give the same float.
 #pragma once
 
+#include <cfloat>
 #include <vector>
 
 #include "luz/light/light.h"
 
 namespace luz {
 
-struct LightBvhNode {
-  LightBounds bounds;
-  uint32_t child = 0;  // inner node: the second child's index; leaf: the light's index
-  uint32_t leaf = 0;
+inline constexpr int kLightBvhWidth = 8;
+inline constexpr int kLightBvhSlotBits = 3;
+inline constexpr uint32_t kLightBvhLeaf = 1u << 31;      // child: a light's index, not a node's
+inline constexpr uint32_t kLightBvhTwoSided = 1u << 30;  // child: its lights emit on both sides
+inline constexpr uint32_t kLightBvhIndex = kLightBvhTwoSided - 1;
+
+// 8 children's bounds (LightBounds, as centre and bounding-sphere radius),
+// one array per field for the SIMD lanes. An empty slot has phi 0.
+struct alignas(32) LightBvhNode {
+  float cx[kLightBvhWidth], cy[kLightBvhWidth], cz[kLightBvhWidth];  // the box's centre
+  float radius[kLightBvhWidth];                                      // half its diagonal
+  float wx[kLightBvhWidth], wy[kLightBvhWidth], wz[kLightBvhWidth];  // the normals' cone axis
+  float phi[kLightBvhWidth];
+  float cos_o[kLightBvhWidth], sin_o[kLightBvhWidth], cos_e[kLightBvhWidth];
+  uint32_t child[kLightBvhWidth];  // node index, or light index | kLightBvhLeaf; | kLightBvhTwoSided
 };
+static_assert(sizeof(LightBvhNode) == 6 * 64, "LightBvhNode: 12 arrays of 8, six cache lines");
 
 struct SampledLight {
   uint32_t light = 0;
   float pmf = 0.f;  // 0: no light chosen (none emits toward the point)
 };
 
-// Bit trails: depth at most kLightTrailDepth; the top bits mark the lights
-// outside the tree.
+// Trails: at most kLightTrailLevels levels of kLightBvhSlotBits; the top bits
+// mark the lights outside the tree.
 inline constexpr uint64_t kTrailInfinite = uint64_t(1) << 63;  // an infinite light with power
 inline constexpr uint64_t kTrailNone = uint64_t(1) << 62;      // no power: never chosen
-inline constexpr int kLightTrailDepth = 62;
+inline constexpr int kLightTrailLevels = 20;
+
+// The importance of light bounds at a shading point, written once over a
+// lane type F: a float (CUDA, and compilers without GCC's vector extensions)
+// or, on the CPU, 8 floats (M: the mask type of F's comparisons). Branch-free:
+// every operand is computed before the selects that pick among them, and
+// cosines are clamped to [-1, 1] so that 1 - cos² >= 0 needs no select.
+namespace light_lanes {
+
+#if !defined(__CUDACC__) && defined(__GNUC__) && !defined(__clang__)
+#define LUZ_LIGHT_LANES_SIMD 1
+typedef float LaneF __attribute__((vector_size(4 * kLightBvhWidth)));
+typedef uint32_t LaneU __attribute__((vector_size(4 * kLightBvhWidth)));
+
+inline LaneF load(const float* a) {
+  LaneF v;
+  __builtin_memcpy(&v, a, sizeof v);
+  return v;
+}
+inline LaneU load(const uint32_t* a) {
+  LaneU v;
+  __builtin_memcpy(&v, a, sizeof v);
+  return v;
+}
+inline LaneF lane_sqrt(LaneF x) {
+#ifdef __AVX__
+  return __builtin_ia32_sqrtps256(x);
+#else
+  LaneF r;
+  for (int i = 0; i < kLightBvhWidth; ++i) r[i] = __builtin_sqrtf(x[i]);
+  return r;
+#endif
+}
+#else
+#define LUZ_LIGHT_LANES_SIMD 0
+#endif
+LUZ_FORCE_INLINE float lane_sqrt(float x) { return sqrtf(x); }
+
+template <class F, class M>
+LUZ_FORCE_INLINE F select(M m, F a, F b) {
+  return m ? a : b;
+}
+template <class F>
+LUZ_FORCE_INLINE F lane_min(F a, F b) {
+  return select(a < b, a, b);
+}
+template <class F>
+LUZ_FORCE_INLINE F lane_max(F a, F b) {
+  return select(a > b, a, b);
+}
+
+// cx..cz: the box's centre; r: its bounding sphere's radius; w, cos_o,
+// sin_o: the normals' cone; two_sided: a mask; p, n, h: the context's point, shading normal and
+// hemisphere (zero: none); no_n: 2 where n is zero, else 0.
+template <class F, class M>
+LUZ_FORCE_INLINE F importance(F cx, F cy, F cz, F r, F wx, F wy, F wz, F phi, F cos_o, F sin_o, F cos_e, M two_sided,
+                              Vec3 p, Vec3 n, Vec3 h, float no_n) {
+  const F zero = cx - cx, one = zero + 1.f;
+  const F dx = p.x - cx, dy = p.y - cy, dz = p.z - cz;  // from the lights toward p
+  const F dc2 = dx * dx + dy * dy + dz * dz;
+  // pbrt's clamp of the distance, so points inside the box are not
+  // infinitely important: max(d², |diagonal| / 2).
+  const F d2 = lane_max(dc2, r);
+  // (at the centre d = 0, so the cosines below are 0 as with no direction)
+  const F inv_d = 1.f / lane_sqrt(dc2 + FLT_MIN);
+  const F cos_w0 = lane_min(lane_max((wx * dx + wy * dy + wz * dz) * inv_d, zero - 1.f), one);
+  const F cos_w = select(two_sided, select(cos_w0 < 0.f, -cos_w0, cos_w0), cos_w0);
+  const F sin_w = lane_sqrt(1.f - cos_w * cos_w);
+  // The cone the bounding sphere subtends from p (every direction from inside).
+  const auto inside = dc2 < r * r;
+  const F sin_b0 = lane_min(r * inv_d, one), cos_b0 = lane_sqrt(1.f - sin_b0 * sin_b0);
+  const F sin_b = select(inside, zero, sin_b0), cos_b = select(inside, zero - 1.f, cos_b0);
+  // θ' = max(0, θw - θo - θb), by cosines of clamped differences.
+  const auto in_o = cos_w > cos_o;
+  const F cos_x = select(in_o, one, cos_w * cos_o + sin_w * sin_o);
+  const F sin_x = select(in_o, zero, sin_w * cos_o - cos_w * sin_o);
+  const F cos_p = select(cos_x > cos_b, one, cos_x * cos_b + sin_x * sin_b);
+  // θi: the lights' direction against the surface normal, less θb.
+  const F dn = dx * n.x + dy * n.y + dz * n.z;
+  const F cos_i = lane_min(select(dn < 0.f, -dn, dn) * inv_d, one);
+  const F sin_i = lane_sqrt(1.f - cos_i * cos_i);
+  const F f_i = select(cos_i + no_n > cos_b, one, cos_i * cos_b + sin_i * sin_b);
+  const F v = phi * cos_p * f_i / (d2 + FLT_MIN);
+  // Below the tangent plane by more than the radius (and a rounding margin);
+  // never without a hemisphere (h zero: 0 > margin is false).
+  const F margin = 1.0001f * r + 1e-4f * dc2 * inv_d;
+  const auto above = dx * h.x + dy * h.y + dz * h.z <= margin;
+  const auto lit = (phi > 0.f) & (d2 > 0.f) & (cos_p > cos_e) & above & (v > 0.f);
+  return select(lit, v, zero);
+}
+
+}  // namespace light_lanes
 
 struct BvhLightSampler {
   const LightBvhNode* nodes = nullptr;  // empty: no finite light with power
@@ -43,11 +152,29 @@ struct BvhLightSampler {
   uint32_t num_infinite = 0;
   float p_infinite = 0.f;  // num_infinite / (num_infinite + (tree ? 1 : 0))
 
-  // The probability of the first child at an inner node; 1 - it for the
-  // second. Negative: neither child emits toward p.
-  LUZ_INLINE float first_child_p(uint32_t k, Vec3 p, Vec3 n) const {
-    const float a = nodes[k + 1].bounds.importance(p, n), b = nodes[nodes[k].child].bounds.importance(p, n);
-    return a + b > 0.f ? a / (a + b) : -1.f;
+  // The importance of each of a node's children at the context's point:
+  // pbrt-v4's LightBounds::Importance term by term (light_lanes::importance),
+  // and 0 for a child whose bounding sphere lies wholly below the surface's
+  // tangent plane (ctx.hemisphere: no light from there reaches a reflecting
+  // surface). On the CPU all 8 children at once, in one AVX register.
+  LUZ_FORCE_INLINE static void importances(const LightBvhNode& nd, const LightSampleContext& ctx,
+                                           float imp[kLightBvhWidth]) {
+    const Vec3 n = ctx.ns;
+    // Without a normal, the normal's factor is 1: its cosine is raised above
+    // every cos θb.
+    const float no_n = n.x != 0.f || n.y != 0.f || n.z != 0.f ? 0.f : 2.f;
+#if LUZ_LIGHT_LANES_SIMD
+    using namespace light_lanes;
+    const LaneF v = importance(load(nd.cx), load(nd.cy), load(nd.cz), load(nd.radius), load(nd.wx), load(nd.wy),
+                               load(nd.wz), load(nd.phi), load(nd.cos_o), load(nd.sin_o), load(nd.cos_e),
+                               (load(nd.child) & kLightBvhTwoSided) != 0u, ctx.p, n, ctx.hemisphere, no_n);
+    __builtin_memcpy(imp, &v, sizeof v);
+#else
+    for (int i = 0; i < kLightBvhWidth; ++i)
+      imp[i] = light_lanes::importance(nd.cx[i], nd.cy[i], nd.cz[i], nd.radius[i], nd.wx[i], nd.wy[i], nd.wz[i],
+                                       nd.phi[i], nd.cos_o[i], nd.sin_o[i], nd.cos_e[i], (nd.child[i] & kLightBvhTwoSided) != 0u,
+                                       ctx.p, n, ctx.hemisphere, no_n);
+#endif
   }
 
   // Sample reuse: u is rescaled to [0, 1) within each choice.
@@ -62,22 +189,32 @@ struct BvhLightSampler {
     u = min((u - p_infinite) / (1.f - p_infinite), kOneMinusEpsilon);
     float pmf = 1.f - p_infinite;
     uint32_t k = 0;
-    while (!nodes[k].leaf) {
-      const float p0 = first_child_p(k, ctx.p, ctx.ns);
-      if (p0 < 0.f) return {};
-      if (u < p0) {
-        u = min(u / p0, kOneMinusEpsilon);
-        pmf *= p0;
-        k = k + 1;
-      } else {
-        u = min((u - p0) / (1.f - p0), kOneMinusEpsilon);
-        pmf *= 1.f - p0;
-        k = nodes[k].child;
+    for (int level = 0; level < kLightTrailLevels; ++level) {
+      float imp[kLightBvhWidth];
+      importances(nodes[k], ctx, imp);
+      float total = 0.f;
+      for (int i = 0; i < kLightBvhWidth; ++i) total += imp[i];
+      if (!(total > 0.f)) return {};
+      // The child whose stretch of [0, total) holds u·total: the last with
+      // importance starting at or below it (the first such, if rounding
+      // puts u·total below every start).
+      const float t = u * total;
+      int j = -1;
+      float start = 0.f, chosen = 0.f, c = 0.f;
+      for (int i = 0; i < kLightBvhWidth; ++i) {  // selects, not branches: the choice is a coin toss
+        const bool take = (imp[i] > 0.f) & ((j < 0) | (c <= t));
+        j = take ? i : j;
+        start = take ? c : start;
+        chosen = take ? imp[i] : chosen;
+        c += imp[i];
       }
+      pmf *= chosen / total;
+      u = min((t - start) / chosen, kOneMinusEpsilon);
+      const uint32_t child = nodes[k].child[j];
+      if (child & kLightBvhLeaf) return {child & kLightBvhIndex, pmf};
+      k = child & kLightBvhIndex;
     }
-    // A tree of one light: the root's own importance decides.
-    if (k == 0 && !(nodes[0].bounds.importance(ctx.p, ctx.ns) > 0.f)) return {};
-    return {nodes[k].child, pmf};
+    return {};
   }
 
   LUZ_INLINE float pmf(const LightSampleContext& ctx, uint32_t light) const {
@@ -86,16 +223,22 @@ struct BvhLightSampler {
     if (t & kTrailNone) return 0.f;
     float pmf = 1.f - p_infinite;
     uint32_t k = 0;
-    while (!nodes[k].leaf) {
-      const float p0 = first_child_p(k, ctx.p, ctx.ns);
-      if (p0 < 0.f) return 0.f;
-      const bool second = t & 1u;
-      pmf *= second ? 1.f - p0 : p0;
-      k = second ? nodes[k].child : k + 1;
-      t >>= 1;
+    for (int level = 0; level < kLightTrailLevels; ++level) {
+      float imp[kLightBvhWidth];
+      importances(nodes[k], ctx, imp);
+      float total = 0.f;
+      for (int i = 0; i < kLightBvhWidth; ++i) total += imp[i];
+      const uint32_t slot = uint32_t(t) & (kLightBvhWidth - 1);
+      float chosen = 0.f;
+      for (int i = 0; i < kLightBvhWidth; ++i) chosen = uint32_t(i) == slot ? imp[i] : chosen;
+      if (!(chosen > 0.f)) return 0.f;
+      pmf *= chosen / total;
+      const uint32_t child = nodes[k].child[slot];
+      if (child & kLightBvhLeaf) return pmf;
+      k = child & kLightBvhIndex;
+      t >>= kLightBvhSlotBits;
     }
-    if (k == 0 && !(nodes[0].bounds.importance(ctx.p, ctx.ns) > 0.f)) return 0.f;
-    return pmf;
+    return 0.f;
   }
 };
 
@@ -118,9 +261,10 @@ struct LightBvhData {
   }
 };
 
-// Builds the tree over `lights` (power[k]: Light k's phi; zero: left out),
-// by pbrt-v4's SAH with orientation (the surface-area-orientation heuristic
-// of Conty Estevez and Kulla §4.4), 12 buckets per axis, one light per leaf.
+// Builds the tree over `lights` (power[k]: Light k's phi; zero: left out):
+// a binary tree by pbrt-v4's SAH with orientation (the
+// surface-area-orientation heuristic of Conty Estevez and Kulla §4.4), 12
+// buckets per axis, one light per leaf, then collapsed to 8 wide.
 LightBvhData build_light_bvh(const Light* lights, const double* power, uint32_t n);
 
 }  // namespace luz
