@@ -84,6 +84,12 @@ TEST(FuzzRegressions, JpegHuffmanTableOverflow) {
   expect_refused("stb-jpeg-huffman-overflow.jpg", read_image, "a Huffman table of more than 256 codes");
 }
 
+// A 141-byte TGA whose header claims 19536×17748 pixels: stb allocated and
+// converted 1.4 GB (a fuzz smoke's timeout under ASan).
+TEST(FuzzRegressions, TgaHeaderClaimsMoreThanTheFile) {
+  expect_refused("stb-tga-huge-header.tga", read_image, "its header claims 19536×17748 pixels");
+}
+
 // A shape of no vertices: the reader took the address of an empty vector's first element.
 TEST(FuzzRegressions, SerializedShapeWithoutVertices) {
   expect_refused("serialized-no-vertices.serialized", [](const std::string& p) { luz::read_serialized(p, 0); },

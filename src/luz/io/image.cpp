@@ -338,7 +338,14 @@ Image8 decode_image8(const std::string& name, const uint8_t* data, size_t size) 
   if (!jpeg_huffman_tables_fit(data, size))
     throw InputError(name, 0, "cannot read image: corrupt JPEG (a Huffman table of more than 256 codes)");
   int w = 0, h = 0, channels = 0;
-  stbi_uc* px = stbi_load_from_memory(data, int(std::min(size, size_t(INT32_MAX))), &w, &h, &channels, 4);
+  const int len = int(std::min(size, size_t(INT32_MAX)));
+  // A header's size against the file's: no real PNG, JPEG, TGA or BMP packs
+  // 2048 pixels into a byte (zlib's limit is ~1032:1, RLE's 128:1), and stb
+  // would allocate and fill what a tiny file's header claims.
+  if (stbi_info_from_memory(data, len, &w, &h, &channels) && double(w) * double(h) > 2048.0 * double(size) + 65536.0)
+    throw InputError(name, 0, "cannot read image: its header claims " + std::to_string(w) + "×" + std::to_string(h) +
+                                  " pixels, more than a file of " + std::to_string(size) + " bytes can hold");
+  stbi_uc* px = stbi_load_from_memory(data, len, &w, &h, &channels, 4);
   if (!px) throw InputError(name, 0, std::string("cannot read image: ") + stbi_failure_reason());
   Image8 img;
   img.width = w;
