@@ -7,6 +7,8 @@
 //  * A rank stopped (SIGSTOP: alive, silent, so the launcher does not end
 //    the job): past --mpi-timeout its units go to the others; the image is
 //    still bit-identical, rank 0 says so and the job ends, exit 1.
+//  * A rank stopped after loading, before it has built its scene: taken as
+//    lost after --mpi-timeout; the same image, exit 1.
 //  * --frames on 3 ranks: each frame bit-identical to one process's.
 //  * --broadcast: ranks that lack the scene's files get it from rank 0; the
 //    same image.
@@ -17,6 +19,7 @@
 #include <signal.h>
 
 #include <chrono>
+#include <fstream>
 #include <thread>
 
 #include "cli_helpers.h"
@@ -35,6 +38,13 @@ const std::string kBox = LUZ_SOURCE_DIR "/scenes/cornell-box.xml";
 const std::string kSpheres = LUZ_SOURCE_DIR "/bench/scenes/material-spheres.xml";
 
 size_t lines(const std::string& s) { return size_t(std::count(s.begin(), s.end(), '\n')); }
+
+// A process's resident memory, MB (0 once it is gone).
+double rss_mb(pid_t pid) {
+  const std::string st = slurp("/proc/" + std::to_string(pid) + "/status");
+  const size_t at = st.find("VmRSS:");
+  return at == std::string::npos ? 0.0 : std::stod(st.substr(at + 6)) / 1024;
+}
 
 class Mpi : public LuzCliTest {
  protected:
@@ -208,11 +218,6 @@ TEST_F(Mpi, RankThatNeverLoadsEndsTheJob) {
   const auto start = std::chrono::steady_clock::now();
   const pid_t job = spawn_program(kMpiexec, mpirun_args(3, shell(command)), dir / ".stdout", dir / ".stderr");
   const auto deadline = start + std::chrono::seconds(60);
-  auto rss_mb = [](pid_t pid) {
-    const std::string st = slurp("/proc/" + std::to_string(pid) + "/status");
-    const size_t at = st.find("VmRSS:");
-    return at == std::string::npos ? 0.0 : std::stod(st.substr(at + 6)) / 1024;
-  };
   while (!fs::exists(dir / "pid.1") && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   ASSERT_TRUE(fs::exists(dir / "pid.1"));
@@ -232,6 +237,68 @@ TEST_F(Mpi, RankThatNeverLoadsEndsTheJob) {
       << res.err;
   EXPECT_LT(seconds, 30);
   EXPECT_FALSE(fs::exists(dir / "x.pfm"));
+}
+
+// A rank that loads the scene but never finishes building it (stopped with
+// SIGSTOP during Embree's build of a 2-million-triangle grid, once it holds
+// 160 MB: loading peaks near 90 MB): past --mpi-timeout rank 0 takes it as
+// lost, the other two render the whole image, bit-identical, and the job
+// ends without it, exit 1.
+TEST_F(Mpi, RankThatNeverBuildsItsSceneIsTakenAsLost) {
+  {
+    // A binary PLY grid: 1000² vertices, 2·999² triangles (38 MB).
+    std::ofstream o(dir / "grid.ply", std::ios::binary);
+    const int n = 1000;
+    o << "ply\nformat binary_little_endian 1.0\nelement vertex " << n * n
+      << "\nproperty float x\nproperty float y\nproperty float z\nelement face " << 2 * (n - 1) * (n - 1)
+      << "\nproperty list uchar int vertex_indices\nend_header\n";
+    std::vector<float> v;
+    for (int y = 0; y < n; ++y)
+      for (int x = 0; x < n; ++x) v.insert(v.end(), {2.f * x / (n - 1) - 1, 2.f * y / (n - 1) - 1, 0.f});
+    o.write(reinterpret_cast<const char*>(v.data()), std::streamsize(v.size() * sizeof(float)));
+    std::vector<char> f;
+    auto face = [&](int32_t a, int32_t b, int32_t c) {
+      f.push_back(3);
+      for (int32_t i : {a, b, c}) f.insert(f.end(), reinterpret_cast<const char*>(&i), reinterpret_cast<const char*>(&i) + 4);
+    };
+    for (int r = 0; r + 1 < n; ++r)
+      for (int c = 0; c + 1 < n; ++c) {
+        const int a = r * n + c;
+        face(a, a + 1, a + n + 1);
+        face(a, a + n + 1, a + n);
+      }
+    o.write(f.data(), std::streamsize(f.size()));
+  }
+  const std::vector<std::string> args = {"render", "grid.ply", "--res", "24x24", "--spp", "16", "--threads", "1", "-q"};
+  std::vector<std::string> single = args;
+  single.insert(single.end(), {"-o", "single.pfm"});
+  ASSERT_EQ(run(single).status, 0);
+  std::string command = "echo $$ > pid.$RANK.tmp && mv pid.$RANK.tmp pid.$RANK && exec " + std::string(LUZ_BINARY);
+  for (const std::string& a : args) command += " '" + a + "'";
+  command += " -o mpi.pfm --mpi-timeout 2";
+  const pid_t job = spawn_program(kMpiexec, mpirun_args(3, shell(command)), dir / ".stdout", dir / ".stderr");
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!fs::exists(dir / "pid.1") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_TRUE(fs::exists(dir / "pid.1"));
+  const pid_t rank1 = std::stoi(slurp(dir / "pid.1"));
+  while (rss_mb(rank1) < 160 && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  ASSERT_EQ(::kill(rank1, SIGSTOP), 0);
+  while (!fs::exists(dir / "mpi.pfm") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  const bool written = fs::exists(dir / "mpi.pfm");  // before rank 1 is gone
+  ::kill(rank1, SIGKILL);
+  const CliResult r = wait_for(job, dir / ".stdout", dir / ".stderr", 60);
+  if (r.err.find("sent nothing") != std::string::npos)
+    GTEST_SKIP() << "rank 1 had built its scene before the stop: " << r.err;
+  ASSERT_TRUE(written) << "no image while rank 1 was stopped: " << r.err;
+  EXPECT_TRUE(r.status == 1 || r.status == 137) << r.status << ": " << r.err;
+  EXPECT_NE(r.err.find("luz: warning: rank 1 had not built its scene after 2 s (--mpi-timeout): taken as lost"),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("luz: error: a rank was lost"), std::string::npos) << r.err;
+  EXPECT_TRUE(slurp(dir / "mpi.pfm") == slurp(dir / "single.pfm")) << r.err;
 }
 
 TEST_F(Mpi, FramesOnThreeRanks) {

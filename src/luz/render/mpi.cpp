@@ -318,24 +318,40 @@ RenderResult MpiJob::render(const Scene& scene, const RenderRequest& req) {
   Impl& j = *m_;
   if (j.rank != 0) throw std::logic_error("MpiJob::render on a rank other than 0");
   // The others have built their devices (Embree's BVH): the render's time
-  // starts, as a single process's does, after that. A stop meanwhile
-  // returns the start film as it is.
-  for (int r = 1; r < j.size; ++r)
-    for (;;) {
-      int flag = 0;
-      MPI_Status st;
-      MPI_Iprobe(r, kTagReady, MPI_COMM_WORLD, &flag, &st);
-      if (flag) {
-        receive(st);
-        break;
-      }
-      if (req.cancel && req.cancel->load()) {
-        RenderResult res;
-        res.film = req.start ? *req.start : Film(scene.camera.width, scene.camera.height);
-        return res;
-      }
-      nap();
+  // starts, as a single process's does, after that. A rank not ready within
+  // the timeout is lost, as a silent one during the render is, and the others
+  // take its share. A stop meanwhile returns the start film as it is.
+  const auto since = std::chrono::steady_clock::now();
+  std::vector<char> ready(size_t(j.size), 0);
+  for (int waiting = j.size - 1; waiting > 0;) {
+    int flag = 0;
+    MPI_Status st;
+    MPI_Iprobe(MPI_ANY_SOURCE, kTagReady, MPI_COMM_WORLD, &flag, &st);
+    if (flag) {
+      receive(st);
+      if (!ready[size_t(st.MPI_SOURCE)]) --waiting;
+      ready[size_t(st.MPI_SOURCE)] = 1;
+      continue;
     }
+    if (req.cancel && req.cancel->load()) {
+      RenderResult res;
+      res.film = req.start ? *req.start : Film(scene.camera.width, scene.camera.height);
+      return res;
+    }
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count() > j.timeout) {
+      for (size_t r = 1; r < size_t(j.size); ++r)
+        if (!ready[r]) {
+          j.gone[r] = j.lost[r] = 1;
+          j.any_lost = true;
+          std::fprintf(stderr,
+                       "luz: warning: rank %zu had not built its scene after %g s (--mpi-timeout): taken as lost, its "
+                       "share goes to the other ranks\n",
+                       r, j.timeout);
+        }
+      break;
+    }
+    nap();
+  }
   RemoteRanks remote(j);
   const Camera& cam = scene.camera;
   // Units of a quarter second of the ranks' threads (render_units), on average.
