@@ -36,6 +36,7 @@
 #include <set>
 #include <string>
 
+#include "luz/core/memory.h"
 #include "luz/core/version.h"
 #include "luz/device/cuda/render_cuda.h"
 #include "luz/device/progress.h"
@@ -214,12 +215,6 @@ std::string seconds_text(double s) {
   return buf;
 }
 
-std::string gib_text(double bytes) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f", bytes / double(1ull << 30));
-  return buf;
-}
-
 // A scene path must name a regular file: a FIFO would hang the reader, a
 // device such as /dev/zero be read until memory runs out.
 void check_scene_file(const std::string& path) {
@@ -229,29 +224,21 @@ void check_scene_file(const std::string& path) {
   if (!S_ISREG(st.st_mode)) throw luz::InputError(path, 0, "is not a regular file (a pipe or a device?)");
 }
 
-// The memory the kernel could give now (MemAvailable), or 0 when unknown.
-double available_memory() {
-  std::ifstream in("/proc/meminfo");
-  std::string key;
-  double kib = 0;
-  while (in >> key >> kib) {
-    if (key == "MemAvailable:") return kib * 1024;
-    in.ignore(1 << 10, '\n');
-  }
-  return 0;
-}
-
-// The film, the next pass's, a checkpoint's copy and the image must fit in
-// the memory available.
-void check_memory(int width, int height) {
-  const double pixels = double(width) * double(height);
-  const double film = 6 * sizeof(double) + sizeof(uint32_t);  // sums, sums of squares, count
-  const double need = pixels * (3 * film + 3 * sizeof(float));
-  const double avail = available_memory();
-  if (avail > 0 && need > avail)
-    throw luz::InputError("the " + std::to_string(width) + "×" + std::to_string(height) + " image needs " +
-                          gib_text(need) + " GiB of memory for its films; " + gib_text(avail) +
-                          " GiB are available");
+// The films (the render's, the next pass's, a checkpoint's copy), the image
+// and the acceleration structure must fit in the memory available. Embree's
+// BVH takes 60-80 bytes a triangle as Luz builds it (a 2-million-triangle
+// grid: 150 MB); 64 keeps the estimate from refusing a render that fits.
+void check_memory(const luz::Scene& scene) {
+  const int width = scene.camera.width, height = scene.camera.height;
+  const uint64_t film = 6 * sizeof(double) + sizeof(uint32_t);  // sums, sums of squares, count
+  const uint64_t films = uint64_t(width) * uint64_t(height) * (3 * film + 3 * sizeof(float));
+  const uint64_t triangles = scene.tri_material.size(), bvh = triangles * 64;
+  const uint64_t avail = luz::available_memory();
+  if (avail > 0 && films + bvh > avail)
+    throw luz::InputError("the render needs " + luz::memory_text(films + bvh) + " of memory (the films of the " +
+                          std::to_string(width) + "×" + std::to_string(height) + " image: " + luz::memory_text(films) +
+                          ", the acceleration structure of " + std::to_string(triangles) +
+                          " triangles: " + luz::memory_text(bvh) + "); " + luz::memory_text(avail) + " are available");
 }
 
 // Applies --res or --scale.
@@ -471,7 +458,7 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
   resize(scene, o);
   luz::RenderSettings& s = scene.settings;
   apply_flags(s, o, scene.warnings);
-  check_memory(scene.camera.width, scene.camera.height);
+  check_memory(scene);
   const luz::RenderDevice device = use_cuda ? luz::RenderDevice::Cuda : luz::RenderDevice::Cpu;
   const luz::RenderFields fields = luz::render_fields(scene, device);
   if (ckpt) {
@@ -734,8 +721,8 @@ int run(int argc, char** argv, luz::MpiJob* job) {
       ->check(CLI::IsMember({"albedo", "normal", "depth", "variance"}));
   rc->add_option("--camera", o.camera, "the camera to render, by name (glTF files name theirs; default: the first)");
   rc->add_option("--mpi-timeout", o.mpi_timeout,
-                 "under mpirun: seconds a rank may hold a work unit before it is taken as lost and its units go to "
-                 "the others, or take to load the scene before the job ends (default 600)")
+                 "under mpirun: seconds a rank may hold a work unit, or take to build its scene, before it is taken "
+                 "as lost and its units go to the others, or take to load the scene before the job ends (default 600)")
       ->check(number_in(0, false, 1e9, "a number of seconds above 0 and at most 1e9", "SECONDS"));
   rc->add_flag("--broadcast", o.broadcast,
               "under mpirun: rank 0 loads the scene and sends it to the other ranks (for files only its machine has)");
@@ -837,7 +824,7 @@ int main(int argc, char** argv) {
   if (job->lost_ranks()) {
     // MPI_Finalize would wait for the lost rank: rank 0 ends without it,
     // its outputs written, and the launcher ends the others.
-    std::fprintf(stderr, "luz: error: a rank was lost during the render (its units were redone by the others); "
+    std::fprintf(stderr, "luz: error: a rank was lost (its units were rendered by the others); "
                          "ending the job without it\n");
     std::fflush(stdout);
     std::fflush(stderr);

@@ -63,6 +63,7 @@
 #include <set>
 #include <tuple>
 
+#include "luz/core/memory.h"
 #include "luz/io/error.h"
 #include "luz/io/image.h"
 #include "luz/math/transform.h"
@@ -465,6 +466,9 @@ class GltfLoader {
       const Data pos = attribute(p, "POSITION", 3, false, where);
       const size_t n = pos.count;
       if (n > size_t(UINT32_MAX / 2)) fail(where, "too many vertices");
+      // Once per placement where the mesh is not instanced (add_mesh): many nodes add up.
+      require_memory(uint64_t(n) * (2 * sizeof(Vec3) + sizeof(Vec2) + 3 * sizeof(uint32_t)), path_,
+                     where + ": its " + std::to_string(n) + " vertices");
       TriangleMesh mesh;  // positions, normals in world space (SceneBuilder checks them)
       mesh.positions.resize(n);
       for (size_t i = 0; i < n; ++i)

@@ -16,6 +16,7 @@
 #include <memory>
 #include <string_view>
 
+#include "luz/core/memory.h"
 #include "luz/io/error.h"
 
 namespace luz {
@@ -558,6 +559,11 @@ PlyMesh read_data(Source src, const Header& h) {
 
 PlyMesh read_ply_memory(const std::string& name, const char* data, size_t size) {
   Header h = HeaderParser(name, data, size).parse();
+  uint64_t need = 0;  // the mesh's arrays, from the header's counts
+  if (h.vertex >= 0)
+    need += h.elements[size_t(h.vertex)].count * (sizeof(Vec3) + (h.normals ? sizeof(Vec3) : 0) + (h.uvs ? sizeof(Vec2) : 0));
+  if (h.face >= 0) need += h.elements[size_t(h.face)].count * (3 * sizeof(uint32_t) + (h.face_indices ? sizeof(int32_t) : 0));
+  require_memory(need, name, "its vertices and faces");
   if (h.format == Format::Ascii) return read_data(AsciiSource(name, data, size, h), h);
   return read_data(BinarySource(name, data, size, h), h);
 }
@@ -577,6 +583,7 @@ std::string gunzip(const std::string& path, const std::string& in) {
   for (;;) {
     if (zs.total_out == out.size()) {
       if (out.size() >= kMaxSize) throw InputError(path, 0, "decompresses to more than 4 GiB");
+      require_memory(std::min(2 * out.size(), kMaxSize) - out.size(), path, "its decompressed data");
       out.resize(std::min(2 * out.size(), kMaxSize));
     }
     zs.next_out = (Bytef*)out.data() + zs.total_out;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <iterator>
 
+#include "luz/core/memory.h"
 #include "luz/io/error.h"
 
 namespace luz {
@@ -83,6 +84,13 @@ class Reader {
       fail_data(std::to_string(nv) + " vertices and " + std::to_string(nt) +
                 " triangles need more data than the file's remaining " + std::to_string(avail) + " bytes can hold");
 
+    // In memory: Vec3 positions, normals, Vec2 uvs, a colour array read and
+    // dropped, the indices and their raw bytes.
+    const uint64_t resident = nv * (sizeof(Vec3) * (1 + bool(flags & kHasNormals) + bool(flags & kHasColors)) +
+                                    ((flags & kHasUvs) ? sizeof(Vec2) : 0)) +
+                              nt * 24;
+    require_memory(resident, name_, "shape " + std::to_string(shape_) + "'s " + std::to_string(nv) + " vertices and " +
+                                        std::to_string(nt) + " triangles");
     m.positions = vectors<Vec3>(size_t(nv), flags & kDouble, "position");
     if (flags & kHasNormals) m.normals = vectors<Vec3>(size_t(nv), flags & kDouble, "normal");
     if (flags & kHasUvs) m.uvs = vectors<Vec2>(size_t(nv), flags & kDouble, "texture coordinate");

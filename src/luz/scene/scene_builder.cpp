@@ -8,6 +8,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "luz/core/memory.h"
 #include "luz/io/error.h"
 #include "luz/io/image.h"
 
@@ -329,6 +330,22 @@ void SceneBuilder::check_room(const SourceLoc& at, const TriangleMesh& mesh) con
   if (scene_.positions.size() + mesh.positions.size() >= size_t(UINT32_MAX) ||
       scene_.tri_material.size() + mesh.indices.size() / 3 >= size_t(UINT32_MAX))
     error(at, "the scene would have more than 2^32 - 1 vertices or triangles");
+  // What the scene's arrays would allocate to take the mesh (a vector that
+  // is full doubles): many placements of one mesh add up to more than any
+  // reader's own request.
+  const size_t nv = mesh.positions.size(), nt = mesh.indices.size() / 3;
+  uint64_t grow = 0;
+  auto add = [&](const auto& v, size_t more) {
+    if (v.size() + more > v.capacity()) grow += std::max(2 * v.capacity(), v.size() + more) * sizeof(v[0]);
+  };
+  add(scene_.positions, nv);
+  if (!mesh.normals.empty() || !scene_.normals.empty()) add(scene_.normals, nv);
+  if (!mesh.uvs.empty() || !scene_.uvs.empty()) add(scene_.uvs, nv);
+  add(scene_.indices, 3 * nt);
+  add(scene_.tri_material, nt);
+  add(scene_.tri_emitter, nt);
+  require_memory(grow, at.file, "the scene's arrays, grown to " + std::to_string(scene_.positions.size() + nv) +
+                                    " vertices,", at.line);
 }
 
 void SceneBuilder::add_mesh(const SourceLoc& at, TriangleMesh mesh, uint32_t material, const AreaEmission* emission,
