@@ -21,6 +21,20 @@ namespace {
 
 using namespace luz_test;
 
+// AddressSanitizer reserves terabytes of address space for its shadow: no
+// address-space limit can hold it (the sanitizer build, scripts/sanitize).
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kAsan = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kAsan = true;
+#else
+constexpr bool kAsan = false;
+#endif
+#else
+constexpr bool kAsan = false;
+#endif
+
 // A "Key: value kB" line of a /proc file, in bytes (0 when absent).
 uint64_t proc_bytes(const char* path, const std::string& key) {
   std::ifstream in(path);
@@ -41,6 +55,7 @@ TEST(Memory, AvailableIsAtMostTheKernels) {
 // In a child process (the limit is for good): the headroom under RLIMIT_AS,
 // a request that fits, one that does not and its message.
 TEST(Memory, AddressSpaceLimitIsHonoured) {
+  if (kAsan) GTEST_SKIP() << "under AddressSanitizer";
   const pid_t pid = ::fork();
   if (pid == 0) {
     const uint64_t size = proc_bytes("/proc/self/status", "VmSize:"), room = uint64_t(512) << 20;
@@ -86,6 +101,11 @@ TEST(Memory, Text) {
 class MemoryCli : public LuzCliTest {
  protected:
   // luz with `args` under `ulimit -v` of `mib` MiB.
+  void SetUp() override {
+    if (kAsan) GTEST_SKIP() << "under AddressSanitizer";
+    LuzCliTest::SetUp();
+  }
+
   CliResult limited(int mib, const std::vector<std::string>& args) {
     std::string command = "ulimit -v " + std::to_string(mib * 1024) + " && exec '" + std::string(LUZ_BINARY) + "'";
     for (const std::string& a : args) command += " '" + a + "'";
