@@ -587,7 +587,7 @@ TEST_P(PbrtEveryScene, LoadsAndRenders) {
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double cpu = double(std::clock() - c0) / CLOCKS_PER_SEC;
   std::printf("[pbrt] %s: loaded in %.3f s (%.3f s CPU), %zu triangles, %zu lights, %zu warnings\n", d, secs, cpu,
-              s.num_triangles(), s.lights.size(), s.warnings.size());
+              size_t(s.num_triangles()), s.lights.size(), s.warnings.size());
   for (const std::string& w : s.warnings) std::printf("  %s\n", w.c_str());
   Film f = render_small(s, 48, 4);
   double sum = 0;

@@ -239,7 +239,7 @@ bool sweep_bins(const Bins& bins, int nb, i4 axis_ok, int& axis, int& bin, float
       lz = min4(lz, bins.lo[2][i]), hz = max4(hz, bins.hi[2][i]);
       cnt += bins.count(i);
       const f4 c = half_areas3(hx - lx, hy - ly, hz - lz) * __builtin_convertvector(cnt, f4);
-      right_cost[i] = (cnt != zero) & (axis_ok != zero) ? c : splat(kInf);
+      right_cost[i] = ((cnt != zero) & (axis_ok != zero)) ? c : splat(kInf);
     }
   }
   f4 lx = splat(kInf), ly = lx, lz = lx, hx = splat(-kInf), hy = hx, hz = hx;

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <thread>
@@ -130,24 +131,18 @@ void send(const std::vector<char>& b, int dest, int tag) {
   MPI_Send(b.data(), int(b.size()), MPI_BYTE, dest, tag, MPI_COMM_WORLD);
 }
 
-void wait(MPI_Request& r) {
-  for (int flag = 0; !flag;) {
+// Waits for the request, polled, at most `seconds`: whether it completed.
+bool wait_for(MPI_Request& r, double seconds) {
+  const auto start = std::chrono::steady_clock::now();
+  for (int flag = 0;;) {
     MPI_Test(&r, &flag, MPI_STATUS_IGNORE);
-    if (!flag) nap();
+    if (flag) return true;
+    if (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() > seconds) return false;
+    nap();
   }
 }
 
-// wait() for at most `seconds`: whether the request completed.
-bool wait_for(MPI_Request& r, double seconds) {
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
-  for (int flag = 0; !flag;) {
-    MPI_Test(&r, &flag, MPI_STATUS_IGNORE);
-    if (flag) break;
-    if (std::chrono::steady_clock::now() > deadline) return false;
-    nap();
-  }
-  return true;
-}
+void wait(MPI_Request& r) { wait_for(r, std::numeric_limits<double>::infinity()); }
 
 }  // namespace
 
