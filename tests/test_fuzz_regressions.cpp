@@ -108,6 +108,14 @@ TEST(FuzzRegressions, ExrAttributePastEnd) {
   expect_refused("exr-attribute-past-end.exr", read_image, "of 1036239617 bytes runs past the end of the file");
 }
 
+// A channel list whose entries end before its stated size: OpenEXR reads on
+// from where they end, into an attribute of 1.75 GB (allocated, then an
+// early end of file; a second under ASan); the check read on from the size.
+TEST(FuzzRegressions, ExrChannelListShorterThanStated) {
+  expect_refused("exr-channel-list-shorter-than-stated.exr", read_image,
+                 "attribute 'lineOrderv/1\\x01\\x02' of 1751318528 bytes runs past the end of the file");
+}
+
 // A data window far from the origin: the frame buffer's base pointer,
 // moved back by the origin's offset, overflowed (UBSan).
 TEST(FuzzRegressions, ExrFarDataWindow) {

@@ -206,10 +206,16 @@ void check_exr_header(const std::string& path, const std::vector<uint8_t>& d) {
     if (at + 4 > d.size()) fail(at, "OpenEXR header cut short");
     return int32_t(uint32_t(d[at]) | uint32_t(d[at + 1]) << 8 | uint32_t(d[at + 2]) << 16 | uint32_t(d[at + 3]) << 24);
   };
-  auto text = [&](size_t at) {  // a zero-terminated name
-    const void* end = at < d.size() ? std::memchr(&d[at], 0, d.size() - at) : nullptr;
-    if (!end) fail(at, "OpenEXR header cut short");
-    return std::string(reinterpret_cast<const char*>(&d[at]), size_t(static_cast<const uint8_t*>(end) - &d[at]));
+  // A name as OpenEXR reads one: through its zero, or 256 bytes without one.
+  // Returns the bytes it takes.
+  auto name_at = [&](size_t at, std::string* name = nullptr) {
+    size_t n = 0;
+    while (n < 256) {
+      if (at + n >= d.size()) fail(at, "OpenEXR header cut short");
+      if (d[at + n++] == 0) break;
+    }
+    if (name) name->assign(reinterpret_cast<const char*>(&d[at]), d[at + n - 1] == 0 ? n - 1 : n);
+    return n;
   };
   if (i32(0) != 20000630) fail(0, "not an OpenEXR file");
   const bool multipart = i32(4) & 0x1000;
@@ -220,13 +226,25 @@ void check_exr_header(const std::string& path, const std::vector<uint8_t>& d) {
     while (true) {
       if (pos >= d.size()) fail(pos, "OpenEXR header cut short");
       if (d[pos] == 0) break;
-      const std::string name = text(pos);
-      pos += name.size() + 1;
-      pos += text(pos).size() + 1;
+      std::string name, type;
+      pos += name_at(pos, &name);
+      pos += name_at(pos, &type);
       const int32_t size = i32(pos);
       pos += 4;
       if (size < 0 || size_t(size) > d.size() - pos)
         fail(pos - 4, "attribute '" + name + "' of " + std::to_string(size) + " bytes runs past the end of the file");
+      if (type == "chlist") {
+        // OpenEXR reads a channel list by its entries (a name, 16 bytes),
+        // up to an empty name, whatever its stated size: where it goes on
+        // reading, so does this check.
+        while (true) {
+          if (pos >= d.size()) fail(pos, "OpenEXR header cut short");
+          if (d[pos] == 0) break;
+          pos += name_at(pos) + 16;
+        }
+        ++pos;
+        continue;
+      }
       if (name == "dataWindow" && size >= 16) {
         const double w = double(i32(pos + 8)) - i32(pos) + 1, h = double(i32(pos + 12)) - i32(pos + 4) + 1;
         if (w < 1 || h < 1) fail(pos, "empty data window");
