@@ -108,6 +108,13 @@ TEST(FuzzRegressions, ExrAttributePastEnd) {
   expect_refused("exr-attribute-past-end.exr", read_image, "of 1036239617 bytes runs past the end of the file");
 }
 
+// A PNG with an empty chunk after its data: stb memcpy'd zero bytes to a
+// null buffer (UBSan's nonnull-attribute, in stb: exempted there), then
+// failed without a reason.
+TEST(FuzzRegressions, PngEmptyChunk) {
+  expect_refused("stb-png-empty-chunk.png", read_image, "cannot read image: corrupt data");
+}
+
 // A channel list whose entries end before its stated size: OpenEXR reads on
 // from where they end, into an attribute of 1.75 GB (allocated, then an
 // early end of file; a second under ASan); the check read on from the size.
