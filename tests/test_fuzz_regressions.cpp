@@ -84,6 +84,12 @@ TEST(FuzzRegressions, JpegHuffmanTableOverflow) {
   expect_refused("stb-jpeg-huffman-overflow.jpg", read_image, "a Huffman table of more than 256 codes");
 }
 
+// The same after a 0xFF fill byte before the start-of-image marker: stb
+// skips it, the table check took the file for no JPEG.
+TEST(FuzzRegressions, JpegFillByteBeforeStart) {
+  expect_refused("stb-jpeg-fill-before-soi.jpg", read_image, "a Huffman table of more than 256 codes");
+}
+
 // A 141-byte TGA whose header claims 19536×17748 pixels: stb allocated and
 // converted 1.4 GB (a fuzz smoke's timeout under ASan).
 TEST(FuzzRegressions, TgaHeaderClaimsMoreThanTheFile) {

@@ -118,8 +118,11 @@ std::string encode_png(const Image& img) {
 // never taken for a marker); bytes past the end read as 0, as stb reads them.
 bool jpeg_huffman_tables_fit(const uint8_t* d, size_t size) {
   auto at = [&](size_t i) { return i < size ? d[i] : uint8_t(0); };
-  if (at(0) != 0xFF || at(1) != 0xD8) return true;  // not a JPEG
-  for (size_t pos = 2; pos + 1 < size;) {
+  // SOI, after any 0xFF fill bytes (stb skips them too); else not a JPEG.
+  size_t start = 1;
+  while (at(0) == 0xFF && start < size && d[start] == 0xFF) ++start;
+  if (at(0) != 0xFF || at(start) != 0xD8) return true;
+  for (size_t pos = start + 1; pos + 1 < size;) {
     const uint8_t m = d[pos + 1];
     // Entropy-coded data, byte stuffing, fill bytes, RSTn, TEM, SOI.
     if (d[pos] != 0xFF || m == 0x00 || m == 0xFF || m == 0x01 || (m >= 0xD0 && m <= 0xD8)) {
