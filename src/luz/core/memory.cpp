@@ -7,7 +7,6 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
-#include <sstream>
 
 #include "luz/io/error.h"
 
