@@ -95,21 +95,32 @@ class Mpi : public LuzCliTest {
     return r;
   }
 
-  // mpirun -np 3 with luz's `args` and `extra` (shell words), each rank
-  // writing its pid to pid.RANK; returns mpirun's pid once rank 1 has been
-  // rendering for 1.5 s, and rank 1's pid (0 if it never started).
-  pid_t start_three(const std::vector<std::string>& args, const std::string& extra, pid_t& rank1) {
-    std::string command = "echo $$ > pid.$RANK.tmp && mv pid.$RANK.tmp pid.$RANK && exec " + std::string(LUZ_BINARY);
-    for (const std::string& a : args) command += " '" + a + "'";
-    command += extra;
+  // mpirun -np 3 of luz with `words` (shell words), each rank first writing
+  // its pid to pid.RANK; returns mpirun's pid, and rank 1's pid once it has
+  // written it (0 if not within 60 s).
+  pid_t start_ranks(const std::string& words, pid_t& rank1) {
+    const std::string command =
+        "echo $$ > pid.$RANK.tmp && mv pid.$RANK.tmp pid.$RANK && exec '" + std::string(LUZ_BINARY) + "' " + words;
     const pid_t job = spawn_program(kMpiexec, mpirun_args(3, shell(command)), dir / ".stdout", dir / ".stderr");
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
     while (!fs::exists(dir / "pid.1") && std::chrono::steady_clock::now() < deadline)
-      std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    rank1 = 0;
-    if (!fs::exists(dir / "pid.1")) return job;
-    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
-    rank1 = std::stoi(slurp(dir / "pid.1"));
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    rank1 = fs::exists(dir / "pid.1") ? std::stoi(slurp(dir / "pid.1")) : 0;
+    return job;
+  }
+
+  // luz's `args` as shell words, quoted.
+  static std::string words(const std::vector<std::string>& args) {
+    std::string w;
+    for (const std::string& a : args) w += " '" + a + "'";
+    return w;
+  }
+
+  // start_ranks with luz's `args` and `extra` (shell words), returning once
+  // rank 1 has been rendering for 1.5 s.
+  pid_t start_three(const std::vector<std::string>& args, const std::string& extra, pid_t& rank1) {
+    const pid_t job = start_ranks(words(args) + extra, rank1);
+    if (rank1) std::this_thread::sleep_for(std::chrono::milliseconds(1500));
     return job;
   }
 
@@ -212,16 +223,13 @@ TEST_F(Mpi, SilentRankIsTakenAsLost) {
 // line, and the job ends with status 2 instead of hanging.
 TEST_F(Mpi, RankThatNeverLoadsEndsTheJob) {
   const std::string staircase = LUZ_SHARED_DIR "/scenes/staircase/mitsuba/scene.xml";
-  const std::string command = "echo $$ > pid.$RANK.tmp && mv pid.$RANK.tmp pid.$RANK && exec " +
-                              std::string(LUZ_BINARY) + " render \"$( [ $RANK = 1 ] && echo '" + staircase +
-                              "' || echo '" + kBox + "')\" --res 16x16 --spp 1 --mpi-timeout 2 -q -o x.pfm";
   const auto start = std::chrono::steady_clock::now();
-  const pid_t job = spawn_program(kMpiexec, mpirun_args(3, shell(command)), dir / ".stdout", dir / ".stderr");
+  pid_t rank1 = 0;
+  const pid_t job = start_ranks("render \"$( [ $RANK = 1 ] && echo '" + staircase + "' || echo '" + kBox +
+                                    "')\" --res 16x16 --spp 1 --mpi-timeout 2 -q -o x.pfm",
+                                rank1);
+  ASSERT_GT(rank1, 0);
   const auto deadline = start + std::chrono::seconds(60);
-  while (!fs::exists(dir / "pid.1") && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  ASSERT_TRUE(fs::exists(dir / "pid.1"));
-  const pid_t rank1 = std::stoi(slurp(dir / "pid.1"));
   while (rss_mb(rank1) < 100 && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   ASSERT_EQ(::kill(rank1, SIGSTOP), 0);
@@ -273,15 +281,10 @@ TEST_F(Mpi, RankThatNeverBuildsItsSceneIsTakenAsLost) {
   std::vector<std::string> single = args;
   single.insert(single.end(), {"-o", "single.pfm"});
   ASSERT_EQ(run(single).status, 0);
-  std::string command = "echo $$ > pid.$RANK.tmp && mv pid.$RANK.tmp pid.$RANK && exec " + std::string(LUZ_BINARY);
-  for (const std::string& a : args) command += " '" + a + "'";
-  command += " -o mpi.pfm --mpi-timeout 2";
-  const pid_t job = spawn_program(kMpiexec, mpirun_args(3, shell(command)), dir / ".stdout", dir / ".stderr");
+  pid_t rank1 = 0;
+  const pid_t job = start_ranks(words(args) + " -o mpi.pfm --mpi-timeout 2", rank1);
+  ASSERT_GT(rank1, 0);
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
-  while (!fs::exists(dir / "pid.1") && std::chrono::steady_clock::now() < deadline)
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  ASSERT_TRUE(fs::exists(dir / "pid.1"));
-  const pid_t rank1 = std::stoi(slurp(dir / "pid.1"));
   while (rss_mb(rank1) < 160 && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   ASSERT_EQ(::kill(rank1, SIGSTOP), 0);

@@ -175,6 +175,11 @@ struct StbSource {
   }
 };
 
+// An image of w×h pixels at `bytes` a pixel must fit in memory (core/memory.h).
+void require_pixels(const std::string& path, int64_t w, int64_t h, uint64_t bytes) {
+  require_memory(uint64_t(w) * uint64_t(h) * bytes, path, "its " + std::to_string(w) + "×" + std::to_string(h) + " pixels");
+}
+
 // stb's reason for a failed decode; some of its PNG paths fail without one.
 std::string stb_failure() {
   const char* why = stbi_failure_reason();
@@ -193,7 +198,7 @@ Image read_hdr(const std::string& path) {
   if (stbi_info_from_memory(data.data(), size, &w, &h, &channels) && double(w) * double(h) > 16.0 * double(data.size()))
     throw InputError(path, 0, "cannot read Radiance HDR image: " + std::to_string(w) + "x" + std::to_string(h) +
                                   " pixels cannot fit in " + std::to_string(data.size()) + " bytes (truncated?)");
-  require_memory(uint64_t(w) * uint64_t(h) * 24, path, "its " + std::to_string(w) + "×" + std::to_string(h) + " pixels");
+  require_pixels(path, w, h, 24);  // stb's floats and the image's
   StbSource src(data);
   const stbi_io_callbacks io{StbSource::read, StbSource::skip, StbSource::eof};
   float* px = stbi_loadf_from_callbacks(&io, &src, &w, &h, &channels, 3);
@@ -322,8 +327,7 @@ Image read_exr(const std::string& path) {
     Image img;
     img.width = dw.max.x - dw.min.x + 1;
     img.height = dw.max.y - dw.min.y + 1;
-    require_memory(uint64_t(img.width) * uint64_t(img.height) * 12, path,
-                   "its " + std::to_string(img.width) + "×" + std::to_string(img.height) + " pixels");
+    require_pixels(path, img.width, img.height, 12);
     img.rgb.assign(size_t(img.width) * img.height * 3, 0.f);
     Imf::FrameBuffer fb;
     const size_t xs = 3 * sizeof(float), ys = xs * img.width;
@@ -356,7 +360,7 @@ Image read_pfm(const std::string& path) {
   std::streamoff size = in.tellg();
   if (start < 0 || size - start < std::streamoff(w * h * 3 * sizeof(float))) throw InputError(path, 0, "truncated PFM");
   in.seekg(start);
-  require_memory(uint64_t(w) * uint64_t(h) * 12, path, "its " + std::to_string(w) + "×" + std::to_string(h) + " pixels");
+  require_pixels(path, w, h, 12);
   Image img;
   img.width = int(w);
   img.height = int(h);
@@ -386,7 +390,7 @@ Image8 decode_image8(const std::string& name, const uint8_t* data, size_t size) 
   if (stbi_info_from_memory(data, len, &w, &h, &channels) && double(w) * double(h) > 2048.0 * double(size) + 65536.0)
     throw InputError(name, 0, "cannot read image: its header claims " + std::to_string(w) + "×" + std::to_string(h) +
                                   " pixels, more than a file of " + std::to_string(size) + " bytes can hold");
-  require_memory(uint64_t(w) * uint64_t(h) * 8, name, "its " + std::to_string(w) + "×" + std::to_string(h) + " pixels");
+  require_pixels(name, w, h, 8);  // stb's RGBA bytes and the image's
   stbi_uc* px = stbi_load_from_memory(data, len, &w, &h, &channels, 4);
   if (!px) throw InputError(name, 0, "cannot read image: " + stb_failure());
   Image8 img;
