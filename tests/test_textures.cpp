@@ -1,7 +1,8 @@
 // Bitmap textures, texture coordinates and Mitsuba 0.5 scenes:
 // - the lookup (texture.h) against hand-computed bilinear and nearest values
 //   on 3×3 and 2×2 textures, wrap-around at the edges, uv scale and offset;
-//   the sRGB decoding table against the standard formula;
+//   the sRGB decoding table against the standard formula; a run-length TGA
+//   packed as tightly as the format allows is read;
 // - texture coordinates from OBJ (vt, v flipped as Mitsuba does) interpolated
 //   with the hit's own barycentrics: at any hit, uv is the affine function of
 //   the position that the file's vt encode; meshes with and without uvs mixed
@@ -229,6 +230,22 @@ TEST(TextureLookup, SrgbDecodingFollowsTheStandardFormula) {
   EXPECT_NEAR(c.y, 0.2158605, 1e-6);
   s.textures[0].bitmap.srgb = false;
   EXPECT_NEAR(s.view().textures.eval(0, {0.5f, 0.5f}).y, 128.0 / 255, 1e-6);
+}
+
+// A run-length TGA as tightly packed as the format allows (runs of 128
+// grey pixels in 2 bytes, 64 pixels a byte) is read, not taken for a file
+// whose header claims more pixels than it holds.
+TEST(ImageRead, TightestRunLengthTgaReads) {
+  const int w = 2048, h = 2048;
+  std::vector<uint8_t> tga = {0, 0, 11, 0, 0, 0, 0, 0, 0, 0, 0, 0, uint8_t(w), uint8_t(w >> 8), uint8_t(h), uint8_t(h >> 8), 8,
+                              0x20};  // top-left origin
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; x += 128) tga.insert(tga.end(), {0xFF, uint8_t(y + x / 128)});
+  const Image8 img = decode_image8("tight.tga", tga.data(), tga.size());
+  ASSERT_EQ(img.width, w);
+  ASSERT_EQ(img.height, h);
+  for (int y : {0, 1, 700, h - 1})
+    for (int x : {0, 127, 128, 1000, w - 1}) EXPECT_EQ(img.rgba[size_t(y) * w + x] & 0xff, uint8_t(y + x / 128)) << x << "," << y;
 }
 
 using TextureUv = TempDirTest;

@@ -116,12 +116,18 @@ std::string encode_png(const Image& img) {
 // write past its Huffman tables: such a file is refused before stb reads it.
 // Walks the markers, skipping each segment's payload (bytes inside one are
 // never taken for a marker); bytes past the end read as 0, as stb reads them.
+// Where a JPEG's start-of-image marker's second byte is, after any 0xFF
+// fill bytes (stb skips them too); 0: not a JPEG.
+size_t jpeg_start(const uint8_t* d, size_t size) {
+  size_t start = 1;
+  while (size > 0 && d[0] == 0xFF && start < size && d[start] == 0xFF) ++start;
+  return size > start && d[0] == 0xFF && d[start] == 0xD8 ? start : 0;
+}
+
 bool jpeg_huffman_tables_fit(const uint8_t* d, size_t size) {
   auto at = [&](size_t i) { return i < size ? d[i] : uint8_t(0); };
-  // SOI, after any 0xFF fill bytes (stb skips them too); else not a JPEG.
-  size_t start = 1;
-  while (at(0) == 0xFF && start < size && d[start] == 0xFF) ++start;
-  if (at(0) != 0xFF || at(start) != 0xD8) return true;
+  const size_t start = jpeg_start(d, size);
+  if (!start) return true;
   for (size_t pos = start + 1; pos + 1 < size;) {
     const uint8_t m = d[pos + 1];
     // Entropy-coded data, byte stuffing, fill bytes, RSTn, TEM, SOI.
@@ -384,10 +390,15 @@ Image8 decode_image8(const std::string& name, const uint8_t* data, size_t size) 
     throw InputError(name, 0, "cannot read image: corrupt JPEG (a Huffman table of more than 256 codes)");
   int w = 0, h = 0, channels = 0;
   const int len = int(std::min(size, size_t(INT32_MAX)));
-  // A header's size against the file's: no real PNG, JPEG, TGA or BMP packs
-  // 2048 pixels into a byte (zlib's limit is ~1032:1, RLE's 128:1), and stb
-  // would allocate and fill what a tiny file's header claims.
-  if (stbi_info_from_memory(data, len, &w, &h, &channels) && double(w) * double(h) > 2048.0 * double(size) + 65536.0)
+  // A header's size against the file's, as stb would allocate and fill what
+  // a tiny file's header claims (reading zeros past a file's end): no real
+  // PNG, JPEG or GIF packs 2048 pixels into a byte (zlib's limit is
+  // ~1032:1), nor any other format stb reads 64 (RLE: 128 pixels in a
+  // packet of 2 bytes or more; 1-bit BMP: 8).
+  const bool png = size >= 4 && data[0] == 0x89 && data[1] == 'P' && data[2] == 'N' && data[3] == 'G';
+  const bool gif = size >= 3 && data[0] == 'G' && data[1] == 'I' && data[2] == 'F';
+  const double px_per_byte = png || gif || jpeg_start(data, size) ? 2048.0 : 64.0;
+  if (stbi_info_from_memory(data, len, &w, &h, &channels) && double(w) * double(h) > px_per_byte * double(size) + 65536.0)
     throw InputError(name, 0, "cannot read image: its header claims " + std::to_string(w) + "×" + std::to_string(h) +
                                   " pixels, more than a file of " + std::to_string(size) + " bytes can hold");
   require_pixels(name, w, h, 8);  // stb's RGBA bytes and the image's
