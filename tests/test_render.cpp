@@ -128,32 +128,44 @@ TEST(Render, SameFilmForAnyPassSchedule) {
 
 TEST(Render, TinyImageWithManySamplesKeepsTheCoresBusy) {
   const Scene s = box(8, 8192);  // one tile, one pass
-  std::mutex mutex;
-  std::set<std::thread::id> ids;
-  std::vector<uint64_t> done;
-  std::atomic<int> in_callback{0};
-  bool overlapped = false;
-  RenderRequest req;
-  req.threads = 2;
-  req.progress = [&](const RenderProgress& p) {
-    if (in_callback.fetch_add(1) != 0) overlapped = true;
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      ids.insert(std::this_thread::get_id());
-      done.push_back(p.samples_done);
-      EXPECT_EQ(p.samples_total, 8u * 8u * 8192u);
-    }
-    in_callback.fetch_sub(1);
+  struct Run {
+    std::set<std::thread::id> ids;
+    std::vector<uint64_t> done;
+    bool overlapped = false;
   };
-  const RenderResult r = render(s, req);
-  EXPECT_TRUE(r.complete);
-  EXPECT_FALSE(overlapped) << "the progress callback ran twice at once";
-  EXPECT_EQ(ids.size(), 2u) << "the work items ran on one thread";
-  EXPECT_GE(done.size(), 50u);
-  for (size_t i = 1; i < done.size(); ++i) ASSERT_GE(done[i], done[i - 1]);
-  EXPECT_EQ(done.back(), 8u * 8u * 8192u);
-  size_t distinct = std::set<uint64_t>(done.begin(), done.end()).size();
+  auto run = [&] {
+    Run out;
+    std::mutex mutex;
+    std::atomic<int> in_callback{0};
+    RenderRequest req;
+    req.threads = 2;
+    req.progress = [&](const RenderProgress& p) {
+      if (in_callback.fetch_add(1) != 0) out.overlapped = true;
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        out.ids.insert(std::this_thread::get_id());
+        out.done.push_back(p.samples_done);
+        EXPECT_EQ(p.samples_total, 8u * 8u * 8192u);
+      }
+      in_callback.fetch_sub(1);
+    };
+    EXPECT_TRUE(render(s, req).complete);
+    return out;
+  };
+  const Run r = run();
+  EXPECT_FALSE(r.overlapped) << "the progress callback ran twice at once";
+  EXPECT_GE(r.done.size(), 50u);
+  for (size_t i = 1; i < r.done.size(); ++i) ASSERT_GE(r.done[i], r.done[i - 1]);
+  EXPECT_EQ(r.done.back(), 8u * 8u * 8192u);
+  size_t distinct = std::set<uint64_t>(r.done.begin(), r.done.end()).size();
   EXPECT_GE(distinct, 40u) << "the progress hardly moved";
+  // Both threads take work items. Which thread runs an item is the
+  // scheduler's choice: on a machine busy with other tests one worker can
+  // take them all within a second, so up to five renders are given the
+  // chance; work in one item would never show two.
+  size_t threads = r.ids.size();
+  for (int attempt = 1; attempt < 5 && threads < 2; ++attempt) threads = run().ids.size();
+  EXPECT_EQ(threads, 2u) << "the work items ran on one thread in five renders";
 }
 
 // Passes double from about kPassSamplesPerThread pixel-samples per thread to
