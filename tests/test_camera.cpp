@@ -4,17 +4,22 @@
 // against the pinhole bit for bit, the orthographic camera's rays and its
 // rendered image of a quad against the exact area fractions, the perspective
 // principal point offset as a shift of the image, and the Mitsuba loader's
-// sensors with their errors (one line, exit 2, through the binary).
+// sensors with their errors (one line, exit 2, through the binary). The
+// camera seen from the scene (importance.h): a point on a camera ray
+// connects back to that ray's film position and lens point, and the
+// importance integrates to one over the directions through the film.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <random>
 #include <string>
 #include <vector>
 
 #include "cli_helpers.h"
 #include "luz/camera/camera.h"
+#include "luz/camera/importance.h"
 #include "luz/device/cpu/render.h"
 #include "luz/io/load.h"
 #include "temp_dir.h"
@@ -447,6 +452,85 @@ TEST_F(CameraCli, BadSensorsExit2WithOneLine) {
   expect_bad("orthographic", f("principal_point_offset_x", "0.1"), "unknown parameter 'principal_point_offset_x'");
   expect_bad("orthographic", f("near_clip", "0"), "near_clip");
   expect_bad("fisheye", "", "unknown sensor 'fisheye' (supported: perspective, thinlens, orthographic)");
+}
+
+// ---- the camera seen from the scene (importance.h) ----
+
+// A pinhole of 90° across with its principal point moved, and the tilted
+// thin lens; `scaled`: the pinhole's frame stretched (x_axis × 2, y_axis ×
+// 0.75), which changes the directions its film sees and |det M| (1.5).
+Camera offset_pinhole(bool scaled) {
+  Camera c = tilted_lens(0.f, 1.f);
+  c.type = CameraType::Perspective;
+  c.tan_half_x = 1.f;
+  c.tan_half_y = 0.75f;
+  c.edge_x = 1.f - 2.f * 0.1f;
+  c.edge_y = 1.f - 2.f * -0.05f;
+  if (scaled) {
+    c.x_axis = c.x_axis * 2.f;
+    c.y_axis = c.y_axis * 0.75f;
+  }
+  return c;
+}
+
+// A point on the camera ray of film position (fx, fy) and lens sample u
+// connects back to that film position, through the ray's own lens point.
+TEST(CameraImportance, ConnectionFindsTheFilmPositionOfItsRay) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> uni(0.f, 1.f);
+  for (const Camera& cam : {offset_pinhole(false), offset_pinhole(true), tilted_lens(0.2f, 5.f)}) {
+    double worst = 0;
+    for (int k = 0; k < 2000; ++k) {
+      const float fx = uni(rng) * cam.width, fy = uni(rng) * cam.height;
+      const Vec2 u{uni(rng), uni(rng)};
+      const Ray r = cam.generate_ray(fx, fy, u);
+      const Vec3 x = r.o + r.d * (0.5f + 20.f * uni(rng));
+      const luz::CameraConnection c = luz::camera_connect(cam, x, u);
+      ASSERT_TRUE(c.valid) << k;
+      EXPECT_GT(c.importance, 0.f);
+      worst = std::max({worst, std::fabs(double(c.fx) - fx), std::fabs(double(c.fy) - fy)});
+      EXPECT_LT(luz::length(c.p_lens - r.o), 1e-5f);
+      EXPECT_LT(luz::length(c.wi + r.d), 1e-4f);
+    }
+    EXPECT_LT(worst, 2e-3) << "pixels, type " << int(cam.type);
+  }
+  // Behind the lens, and the orthographic camera: no connection.
+  const Camera pin = offset_pinhole(false);
+  EXPECT_FALSE(luz::camera_connect(pin, pin.origin - pin.z_axis).valid);
+  Camera ortho = pin;
+  ortho.type = CameraType::Orthographic;
+  EXPECT_FALSE(luz::camera_connect(ortho, ortho.origin + ortho.z_axis).valid);
+}
+
+// Film-normalised importance: over the directions from a lens point, the
+// importance (times dist², per steradian) integrates to one. Directions
+// uniform in a cone of half-angle 75° about the axis, which holds every
+// film here; the estimate's own standard error sets the bound (z < 4.5).
+TEST(CameraImportance, IntegratesToOneOverTheFilm) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> uni(0.f, 1.f);
+  const double cos_max = std::cos(75.0 * M_PI / 180.0), cone = 2 * M_PI * (1 - cos_max);
+  for (const Camera& cam : {offset_pinhole(false), offset_pinhole(true), tilted_lens(0.2f, 5.f)}) {
+    constexpr int kN = 400000;
+    double sum = 0, sum2 = 0;
+    for (int k = 0; k < kN; ++k) {
+      const Vec2 u{uni(rng), uni(rng)};
+      const double z = 1 - uni(rng) * (1 - cos_max), phi = 2 * M_PI * uni(rng), r = std::sqrt(1 - z * z);
+      // The cone about the camera's axis (the unit direction M (0, 0, 1)).
+      const Vec3 axis = luz::normalize(cam.z_axis), t = luz::normalize(luz::cross(axis, Vec3{0.f, 1.f, 0.f})),
+                 b = luz::cross(axis, t);
+      const Vec3 w = t * float(r * std::cos(phi)) + b * float(r * std::sin(phi)) + axis * float(z);
+      const luz::CameraConnection probe = luz::camera_connect(cam, cam.origin + cam.z_axis, u);
+      const float dist = 3.f;
+      const luz::CameraConnection c = luz::camera_connect(cam, probe.p_lens + w * dist, u);
+      const double v = c.valid ? double(c.importance) * dist * dist * cone : 0.0;
+      sum += v;
+      sum2 += v * v;
+    }
+    const double mean = sum / kN, se = std::sqrt(std::max(0.0, sum2 / kN - mean * mean) / kN);
+    EXPECT_LT(std::fabs(mean - 1), 4.5 * se) << "type " << int(cam.type) << ": " << mean << " ± " << se;
+    EXPECT_LT(se, 0.01);  // the test can tell a cos⁴ Jacobian from cos³ (a few percent here)
+  }
 }
 
 }  // namespace

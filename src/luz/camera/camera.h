@@ -1,7 +1,8 @@
 // The camera: a type and the parameters the models share, one dispatch over
 // the models (perspective.h, thin_lens.h, orthographic.h), and
 // camera_sample(), the one function every device calls to turn a pixel's
-// sample into a ray: pixel → filter → lens → ray.
+// sample into a ray: pixel → filter → lens → ray. The reverse, a scene
+// point's film position and importance for light paths: importance.h.
 #pragma once
 
 #include "luz/camera/frame.h"
