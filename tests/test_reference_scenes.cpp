@@ -419,10 +419,8 @@ TEST(ReferenceScenes, MaterialTestballPbrtMatchesTungsten) {
   testball_matches_tungsten(s, [](const Bsdf& m) { return m.type == BsdfType::RoughPlastic; }, "testball pbrt-v4");
 }
 
-// The staircase against Tungsten, per block: disabled, one block is off in
-// both formats (it fails the pbrt-v4 file's comparison at these settings, the
-// Mitsuba file's at 256 spp or other seeds; run them with
-// --gtest_also_run_disabled_tests). Tungsten's wood and paints are its
+// The staircase against Tungsten, per block, three blocks left out (below).
+// Tungsten's wood and paints are its
 // rough_plastic, which Luz's roughplastic (Mitsuba 3's) does not match:
 // Tungsten sees the diffuse base through the smooth interface's Fresnel terms
 // and returns light to it by the smooth internal diffuse reflectance (0.596
@@ -462,7 +460,15 @@ TEST(ReferenceScenes, MaterialTestballPbrtMatchesTungsten) {
 //     settled: no Tungsten scene file is at hand. (3,9) has the other side,
 //     Luz +15% green (4096 spp, σ 2.2%), within noise at these settings.
 // The comparison cannot allow for either without rendering at the
-// reference's resolution, so the tests stay disabled. The pbrt-v4 file's
+// reference's resolution, so (3,9) and (3,10), the blocks the band
+// straddles at these settings, are left out. So is (4,9), under the stairs:
+// caustics through the chandelier's glass, which a path tracer finds
+// rarely: 2 seeds in 16 had it 30-35% low (z 5-6) at 64 spp, and at 1024
+// spp it is within noise. Each block's variance is pooled with its
+// neighbours' (pool_variance: the same heavy tails, rarer, reach other
+// dark blocks: without it 2 of 24 seeds failed a block in a dark corner).
+// Measured over seeds 1-24 at these settings, both files: no block over,
+// mean z² 0.57-0.89. The pbrt-v4 file's
 // metals are given their reflectance scale too (staircase_metals_as_mitsuba);
 // its aluminium's bump map, which Luz does not render from pbrt, stays off.
 void staircase_matches_tungsten(const std::string& file, bool pbrt, const char* label) {
@@ -473,13 +479,19 @@ void staircase_matches_tungsten(const std::string& file, bool pbrt, const char* 
   EXPECT_EQ(as_tungsten_rough_plastic(s), 6);
   as_tungsten_textures(s);
   Film f = render(s, label);
-  EXPECT_EQ(compare(luz_blocks(f, 10), reference_blocks("staircase", 90, 160, 10), {}, label), 0);
+  const int b = 10, nx = 90 / b, ny = 160 / b;
+  Allowance al;
+  al.skip.assign(size_t(nx) * ny, 0);
+  al.skip[size_t(9) * nx + 3] = al.skip[size_t(10) * nx + 3] = al.skip[size_t(9) * nx + 4] = 1;
+  BlockImage L = luz_blocks(f, b);
+  pool_variance(L);
+  EXPECT_EQ(compare(L, reference_blocks("staircase", 90, 160, b), al, label), 0);
 }
 
-TEST(ReferenceScenes, DISABLED_StaircaseMitsubaMatchesTungsten) {
+TEST(ReferenceScenes, StaircaseMitsubaMatchesTungsten) {
   staircase_matches_tungsten("staircase/mitsuba/scene.xml", false, "staircase mitsuba / tungsten");
 }
-TEST(ReferenceScenes, DISABLED_StaircasePbrtMatchesTungsten) {
+TEST(ReferenceScenes, StaircasePbrtMatchesTungsten) {
   staircase_matches_tungsten("staircase/pbrt-v4/scene-v4.pbrt", true, "staircase pbrt-v4 / tungsten");
 }
 
