@@ -297,7 +297,7 @@ TEST(Instancing, SceneKeepsOneCopyPerObject) {
   const std::string want = "instancing: 2 objects (" + std::to_string(ball + tet) + " triangles) placed by 8 instances (" +
                            std::to_string(6 * ball + 8) + " triangles placed); 0 placements flattened";
   EXPECT_NE(info.find(want), std::string::npos) << info;
-  EXPECT_NE(info.find("shapes: 4 triangles, 1 spheres, 8 instances"), std::string::npos) << info;
+  EXPECT_NE(info.find("shapes: 4 triangles, 1 sphere, 8 instances"), std::string::npos) << info;
   // The bounds hold the flattened scene's.
   const Scene& f = fixture().flat;
   EXPECT_LE(s.bounds_min.x, f.bounds_min.x);

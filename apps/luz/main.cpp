@@ -486,14 +486,15 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
   if (o.device == "auto" && !use_cuda)
     std::fprintf(stderr, "luz: warning: --device auto: no usable GPU (%s); rendering on the CPU\n", no_gpu.c_str());
   if (!o.quiet)
-    std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangles%s, %zu spheres, %zu light%s, loaded in %.2f s, on %s%s\n",
+    std::fprintf(stderr, "luz: %s: %d×%d, %u spp, %u triangle%s%s, %zu sphere%s, %zu light%s, loaded in %.2f s, on %s%s\n",
                  o.scene.c_str(), scene.camera.width, scene.camera.height, s.spp, scene.num_triangles(),
+                 scene.num_triangles() == 1 ? "" : "s",
                  scene.instances.empty()
                      ? ""
                      : (" + " + std::to_string(scene.num_instanced_triangles()) + " placed by " +
                         std::to_string(scene.instances.size()) + " instances")
                            .c_str(),
-                 scene.spheres.size(), scene.lights.size(), scene.lights.size() == 1 ? "" : "s", load_seconds,
+                 scene.spheres.size(), scene.spheres.size() == 1 ? "" : "s", scene.lights.size(), scene.lights.size() == 1 ? "" : "s", load_seconds,
                  use_cuda ? luz::cuda_device_name().c_str()
                  : job    ? (std::to_string(job->size()) + " MPI rank" + (job->size() == 1 ? "" : "s") + " (" +
                           std::to_string(o.threads) + " threads on rank 0)")

@@ -65,11 +65,14 @@ const char* sampler_name(SamplerType t) {
 }
 const char* light_sampler_name(LightSamplerType t) { return t == LightSamplerType::Power ? "power" : "bvh"; }
 
+// "1 sphere", "2 spheres", "0 spheres".
+static std::string counted(uint64_t n, const char* what) { return std::to_string(n) + " " + what + (n == 1 ? "" : "s"); }
+
 std::string describe_scene(const Scene& s) {
   std::string out;
   auto line = [&](const std::string& key, const std::string& value) { out += key + ": " + value + "\n"; };
-  line("shapes", std::to_string(s.num_triangles()) + " triangles, " + std::to_string(s.spheres.size()) + " spheres, " +
-                     std::to_string(s.instances.size() + s.flattened_instances) + " instances");
+  line("shapes", counted(s.num_triangles(), "triangle") + ", " + counted(s.spheres.size(), "sphere") + ", " +
+                     counted(s.instances.size() + s.flattened_instances, "instance"));
   if (!s.objects.empty() || s.flattened_instances > 0) {
     uint64_t stored = 0;
     for (const SceneObject& o : s.objects) stored += o.num_triangles;
