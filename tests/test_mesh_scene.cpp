@@ -136,6 +136,40 @@ TEST_F(MeshSceneFiles, MapKdFollowsTheTextureCoordinates) {
   EXPECT_TRUE(warned);
 }
 
+// map_Ns multiplies Ns by the map's value (linear luminance) at each point:
+// a map dark on its left half (64/255) and white on its right gives
+// exponents 100 · 64/255 and 100. Maps a material cannot use are warnings.
+TEST_F(MeshSceneFiles, MapNsScalesTheExponent) {
+  luz::Image tex{2, 1, {64.f / 255.f, 64.f / 255.f, 64.f / 255.f, 1.f, 1.f, 1.f}};
+  luz::write_image((dir / "ns.pfm").string(), tex);
+  write("ns.mtl",
+        "newmtl gloss\nKd 0.3 0.3 0.3\nKs 0.5 0.5 0.5\nNs 100\nmap_Ns ns.pfm\n"
+        "newmtl matte\nKd 0.5 0.5 0.5\nNs 100\nmap_Ns ns.pfm\n"
+        "newmtl mirror\nKs 0.9 0.9 0.9\nillum 3\nmap_Kd ns.pfm\nmap_Ks ns.pfm\n");
+  const std::string obj = write("ns.obj",
+                                "mtllib ns.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
+                                "usemtl gloss\nf 1/1 2/2 3/3\nusemtl matte\nf 1/1 3/3 2/2\nusemtl mirror\nf 1/1 2/2 3/3\n");
+  luz::Scene s = luz::load_scene(obj);
+  ASSERT_GE(s.materials.size(), 3u);
+  ASSERT_EQ(s.materials[0].num_bindings, 1u);
+  EXPECT_EQ(s.texture_bindings[s.materials[0].first_binding].param, luz::BsdfParam::Exponent);
+  const luz::SceneView v = s.view();
+  const luz::Bsdf left = v.materials.bsdf(0, v.textures, {0.25f, 0.5f});
+  const luz::Bsdf right = v.materials.bsdf(0, v.textures, {0.75f, 0.5f});
+  EXPECT_EQ(left.type, luz::BsdfType::Phong);
+  EXPECT_NEAR(left.phong.exponent, 100.f * 64.f / 255.f, 1e-3f);
+  EXPECT_NEAR(right.phong.exponent, 100.f, 1e-3f);
+  EXPECT_NEAR(s.materials[0].bsdf.phong.exponent, 50.f * (1.f + 64.f / 255.f), 1e-2f);  // the map's mean
+  EXPECT_EQ(s.materials[1].num_bindings, 0u);
+  EXPECT_EQ(s.materials[2].num_bindings, 0u);
+  std::string all;
+  for (const std::string& w : s.warnings) all += w + "\n";
+  EXPECT_NE(all.find("material 'matte': map_Ns is ignored: the material has no glossy part (Ks 0 and no map_Ks)"),
+            std::string::npos) << all;
+  EXPECT_NE(all.find("material 'mirror': map_Kd is ignored: the material is a mirror (illum 3)"), std::string::npos) << all;
+  EXPECT_NE(all.find("material 'mirror': map_Ks is ignored"), std::string::npos) << all;
+}
+
 // Bad MTL values are refused at their line.
 TEST_F(MeshSceneFiles, BadMtlValues) {
   write("bad.mtl", "newmtl a\nd 1.5\n");

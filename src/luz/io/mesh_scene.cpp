@@ -36,7 +36,8 @@ namespace {
 // Ks, illum 7 glass of index Ni (Ks reflecting, Tf transmitting, each white
 // when black), the others Kd/Ks/Ns as modified Phong (diffuse without Ks),
 // two-sided. map_Kd and map_Ks drive Kd and Ks (in place of the constants, as
-// most renderers read them), map_bump is a bump map (-bm its scale), map_d
+// most renderers read them), map_Ns multiplies Ns (as the MTL specification
+// says), map_bump is a bump map (-bm its scale), map_d
 // and d the opacity. Texture maps on faces without texture coordinates are
 // dropped with a warning.
 MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjMaterial& m, bool has_uvs) {
@@ -74,12 +75,32 @@ MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjM
     return builder.add_image_texture(at, t);
   };
   const bool reflects = d.bsdf.type == BsdfType::Diffuse || phong;
-  if (!m.map_kd.empty() && reflects)
-    d.bindings.push_back({image(m.map_kd, true), BsdfPart::Front,
-                          phong ? BsdfParam::DiffuseReflectance : BsdfParam::Reflectance});
-  if (!m.map_ks.empty() && phong) d.bindings.push_back({image(m.map_ks, true), BsdfPart::Front, BsdfParam::SpecularReflectance});
-  if (!m.map_ns.empty())
-    builder.warn(at, "material '" + m.name + "': map_Ns is not supported (Ns " + std::to_string(m.ns) + " used)");
+  const std::string model = m.illum == 7 ? "glass (illum 7)" : "a mirror (illum " + std::to_string(m.illum) + ")";
+  if (!m.map_kd.empty()) {
+    if (reflects)
+      d.bindings.push_back({image(m.map_kd, true), BsdfPart::Front,
+                            phong ? BsdfParam::DiffuseReflectance : BsdfParam::Reflectance});
+    else
+      builder.warn(at, "material '" + m.name + "': map_Kd is ignored: the material is " + model);
+  }
+  if (!m.map_ks.empty()) {
+    if (phong) d.bindings.push_back({image(m.map_ks, true), BsdfPart::Front, BsdfParam::SpecularReflectance});
+    else builder.warn(at, "material '" + m.name + "': map_Ks is ignored: the material is " + model);
+  }
+  // map_Ns: a scalar map (its luminance, linear) that multiplies Ns, as the
+  // MTL specification has it.
+  if (!m.map_ns.empty()) {
+    if (phong) {
+      Texture t = builder.scene().textures[size_t(image(m.map_ns, false))];
+      t.scale = Color{m.ns, m.ns, m.ns};
+      const int32_t ns = builder.add_texture(at, t);
+      d.bindings.push_back({ns, BsdfPart::Front, BsdfParam::Exponent});
+      d.bsdf.phong.exponent = luminance(builder.texture_stats(ns).mean);  // a textured parameter holds its mean
+    } else {
+      builder.warn(at, "material '" + m.name + "': map_Ns is ignored: the material has no glossy part (" +
+                           (reflects ? std::string("Ks 0 and no map_Ks") : "it is " + model) + ")");
+    }
+  }
   if (!m.map_bump.empty()) {
     d.bump_map = image(m.map_bump, false);
     d.bump_scale = m.bump_multiplier;
