@@ -246,6 +246,35 @@ TEST(Integrator, MaxDepth1ShowsOnlyEmitters) {
   }
 }
 
+// hide_emitters (Mitsuba's): the emission the camera sees directly goes, and
+// nothing else. Each sample is the shown image's sample without its depth-1
+// term, so with the same samples: where no sample reaches an emitter
+// directly (the max_depth 1 image is 0) hidden and shown are bit-identical;
+// elsewhere hidden + direct = shown up to float rounding of the terms'
+// order; and hidden at max_depth 1 is black.
+TEST(Integrator, HideEmittersRemovesOnlyWhatTheCameraSeesDirectly) {
+  Scene shown = load(kCornell, 64);
+  shown.settings.spp = 16;
+  Scene hidden = shown, direct = shown;
+  hidden.settings.integrator.hide_emitters = true;
+  direct.settings.integrator.max_depth = 1;
+  const Film fs = render(shown), fh = render(hidden), fd = render(direct);
+  size_t lit = 0;
+  for (size_t i = 0; i < fs.sum.size(); ++i) {
+    if (fd.sum[i] == 0) {
+      EXPECT_EQ(fh.sum[i], fs.sum[i]) << "value " << i;
+    } else {
+      ++lit;
+      EXPECT_LT(fh.sum[i], fs.sum[i]) << "value " << i;
+      EXPECT_NEAR(fh.sum[i] + fd.sum[i], fs.sum[i], 1e-5 * fs.sum[i]) << "value " << i;
+    }
+  }
+  EXPECT_GT(lit, 0u);
+  hidden.settings.integrator.max_depth = 1;
+  const Film black = render(hidden);
+  for (double v : black.sum) ASSERT_EQ(v, 0.0);
+}
+
 // max_depth 2 is direct light only. The ceiling of the Cornell box is above
 // the plane of its downward-facing light, so it receives no direct light:
 // black at depth 2, lit at depth 3. Ceiling pixels are found geometrically:

@@ -453,6 +453,13 @@ TEST_F(Mitsuba, Integrator) {
                "only one <integrator>");
   ip = inside("<integrator type=\"volpath\"/>");  // Luz has no media: path (more in test_mitsuba_formats)
   EXPECT_EQ(ip.type, luz::IntegratorType::Path);
+  EXPECT_FALSE(ip.hide_emitters);
+  ip = inside("<integrator type=\"path\"><boolean name=\"hide_emitters\" value=\"true\"/></integrator>");
+  EXPECT_TRUE(ip.hide_emitters);
+  // Kept from an integrator Luz renders as path, or one nested in it.
+  ip = inside("<integrator type=\"aov\"><integrator type=\"path\"><boolean name=\"hide_emitters\" value=\"true\"/>"
+              "</integrator></integrator>");
+  EXPECT_TRUE(ip.hide_emitters);
   expect_error("<scene version=\"3.0.0\">\n<integrator type=\"path\"><integer name=\"max_depth\" value=\"0\"/></integrator>\n"
                "</scene>\n",
                2, "max_depth");

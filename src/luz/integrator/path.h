@@ -62,6 +62,9 @@ struct IntegratorParams {
   IntegratorType type = IntegratorType::Path;
   int max_depth = -1;
   int rr_depth = 5;  // Russian roulette from this depth on (Mitsuba's default)
+  // Mitsuba's hide_emitters: emitters (the environment too) seen by the
+  // camera directly count for nothing; seen through a bounce they do.
+  bool hide_emitters = false;
 };
 
 // Counters for bench/efficiency's profile: rays by kind, what became of each
@@ -197,7 +200,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
           light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(it.emitter)) * pdf_li(light, prev_ctx, ray.d, {it.ng, hit.t}, lights.data);
       }
     }
-    if (!is_black(Le)) {
+    if (!is_black(Le) && !(depth == 1 && params.hide_emitters)) {
       float w = 1.f;
       if (weigh) {
         if (params.type == IntegratorType::Light) w = 0.f;

@@ -111,7 +111,8 @@ std::string describe_scene(const Scene& s) {
   line("film", std::to_string(c.width) + "×" + std::to_string(c.height) + ", " + filter + " filter");
   const char* integ = integrator_name(r.integrator.type);
   line("integrator", std::string(integ) + ", max depth " +
-                         (r.integrator.max_depth < 0 ? std::string("unbounded") : std::to_string(r.integrator.max_depth)));
+                         (r.integrator.max_depth < 0 ? std::string("unbounded") : std::to_string(r.integrator.max_depth)) +
+                         (r.integrator.hide_emitters ? ", emitters hidden from the camera (hide_emitters)" : ""));
   const char* sampler = sampler_name(r.sampler);
   line("sampler", std::string(sampler) + ", " + std::to_string(r.spp) + " spp, seed " + std::to_string(r.seed));
   line("warnings", std::to_string(s.warnings.size()));

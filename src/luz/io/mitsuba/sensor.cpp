@@ -19,15 +19,18 @@ void MitsubaParser::parse_integrator(pugi::xml_node n) {
                      type == "volpathmis" || type == "direct";
   if (!known) {
     // Its parameters and nested integrators mean nothing to path: only a
-    // max_depth (its own or a nested integrator's) is kept.
+    // max_depth and hide_emitters (its own or a nested integrator's) are kept.
     ip.type = IntegratorType::Path;
     ip.max_depth = -1;
-    for (pugi::xml_node c = n; c; c = c.child("integrator"))
+    for (pugi::xml_node c = n; c; c = c.child("integrator")) {
       for (pugi::xml_node q : c.children("integer"))
         if (param_name(q) == "max_depth" && ip.max_depth == -1) {
           const double d = number(q, attr(q, "value"));
           if (d == std::floor(d) && (d == -1 || (d >= 1 && d <= 1e9))) ip.max_depth = int(d);
         }
+      for (pugi::xml_node q : c.children("boolean"))
+        if (param_name(q) == "hide_emitters") ip.hide_emitters |= attr(q, "value") == "true";
+    }
     builder_.warn(loc(n), "integrator '" + type + "' is not supported: rendered with path (max_depth " +
                               std::to_string(ip.max_depth) + ")");
     return;
@@ -56,7 +59,7 @@ void MitsubaParser::parse_integrator(pugi::xml_node n) {
   if (ip.max_depth < -1 || ip.max_depth == 0)
     error(n, "max_depth must be -1 (unbounded) or from 1 to " + std::to_string(kMaxDepthLimit));
   if (ip.rr_depth < 1) error(n, "rr_depth must be ≥ 1");
-  if (p.get_bool("hide_emitters", false)) error(n, "hide_emitters is not supported");
+  ip.hide_emitters = p.get_bool("hide_emitters", false);
   // Mitsuba 0.5's strictNormals drops light whose geometric and shading
   // sides disagree; Luz's path tracer always does (path.h: the geometric
   // side test beside the shading frame's), so either value means that.
