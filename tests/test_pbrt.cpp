@@ -461,6 +461,37 @@ TEST_F(PbrtScene, MaterialsMapOntoLuzModels) {
   EXPECT_EQ(d.second.type, BsdfType::RoughPlastic);
 }
 
+// An imagemap's `scale` and a `scale` texture over an image: the image's
+// values times the factor, at each texel.
+TEST_F(PbrtScene, ScaledImageTextures) {
+  luz::write_image((dir / "t.pfm").string(), luz::Image{2, 1, {0.25f, 0.5f, 1.f, 1.f, 1.f, 1.f}});
+  const std::string square =
+      "Shape \"trianglemesh\" \"point3 P\" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ] \"point2 uv\" [ 0 0  1 0  1 1  0 1 ]\n"
+      "  \"integer indices\" [ 0 1 2 0 2 3 ]\n";
+  Scene s = load_scene(write("t.pbrt", scene_text("", quad(2, 3) +
+                                                  "Texture \"img\" \"spectrum\" \"imagemap\" \"string filename\" \"t.pfm\" \"float scale\" 0.5\n"
+                                                  "Texture \"half\" \"spectrum\" \"scale\" \"texture tex\" \"img\" \"float scale\" 0.5\n"
+                                                  "Material \"diffuse\" \"texture reflectance\" \"img\"\n" + square +
+                                                  "Material \"diffuse\" \"texture reflectance\" \"half\"\n" + square)));
+  std::vector<int32_t> textures;
+  for (const Material& m : s.materials)
+    if (m.num_bindings == 1) textures.push_back(s.texture_bindings[m.first_binding].texture);
+  ASSERT_EQ(textures.size(), 2u);
+  const SceneView v = s.view();
+  const float want[2][2][3] = {{{0.125f, 0.25f, 0.5f}, {0.5f, 0.5f, 0.5f}}, {{0.0625f, 0.125f, 0.25f}, {0.25f, 0.25f, 0.25f}}};
+  for (int k = 0; k < 2; ++k)
+    for (int side = 0; side < 2; ++side) {
+      const Color c = v.textures.eval(uint32_t(textures[size_t(k)]), {side ? 0.75f : 0.25f, 0.5f});
+      EXPECT_FLOAT_EQ(c.x, want[k][side][0]) << k << " " << side;
+      EXPECT_FLOAT_EQ(c.y, want[k][side][1]) << k << " " << side;
+      EXPECT_FLOAT_EQ(c.z, want[k][side][2]) << k << " " << side;
+    }
+  luz_test::expect_load_refused(
+      write("neg.pbrt", scene_text("", "Texture \"img\" \"spectrum\" \"imagemap\" \"string filename\" \"t.pfm\" \"float scale\" -1\n" +
+                                          quad(-1, 1))),
+      "neg.pbrt:6", "imagemap 'scale' must be finite and ≥ 0");
+}
+
 // Shapes other than meshes, delta lights, Attribute defaults, instances.
 TEST_F(PbrtScene, ShapesLightsAttributesAndInstances) {
   Scene s = load_scene(write("all.pbrt", scene_text("",

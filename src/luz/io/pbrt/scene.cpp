@@ -398,6 +398,14 @@ class PbrtScene final : public ParserTarget {
   }
 
   // ---- textures ----
+  // Texture `index` with every value times k (itself when k is 1).
+  int32_t scaled(const SourceLoc& at, int32_t index, Color k) {
+    if (same(k, {1, 1, 1})) return index;
+    Texture t = builder_.scene().textures[size_t(index)];
+    t.scale = t.scale * k;
+    return builder_.add_texture(at, t);
+  }
+
   void texture(const SourceLoc& at, const std::string& name, const std::string& type, const std::string& cls,
                ParamSet raw) override {
     in_world(at, "Texture");
@@ -424,7 +432,8 @@ class PbrtScene final : public ParserTarget {
       if (wrap == "clamp") d.wrap = WrapMode::Clamp;
       else if (wrap != "repeat") error(at, "imagemap wrap '" + wrap + "' is not supported (repeat, clamp)");
       ps.get_float("maxanisotropy", 8);
-      if (ps.get_float("scale", 1) != 1) error(at, "an imagemap 'scale' other than 1 is not supported");
+      const double scale = ps.get_float("scale", 1);
+      if (!(scale >= 0) || !std::isfinite(scale)) error(at, "imagemap 'scale' must be finite and ≥ 0");
       if (ps.get_bool("invert", false)) error(at, "imagemap 'invert' is not supported");
       const std::string enc = ps.get_string("encoding", "sRGB");
       if (enc == "linear") d.srgb = false;
@@ -433,7 +442,7 @@ class PbrtScene final : public ParserTarget {
       // Luz looks the image up at (s, t) from its top-left; pbrt at (s, 1 - t)
       // with (s, t) = (su u + du, sv v + dv), and Luz's v is 1 - pbrt's.
       d.to_uv = {float(su), 0.f, float(du), 0.f, float(sv), float(1 - sv - dv)};
-      t.index = builder_.add_image_texture(at, d);
+      t.index = scaled(at, builder_.add_image_texture(at, d), Color{float(scale), float(scale), float(scale)});
       t.value = builder_.texture_stats(t.index).mean;
     } else if (cls == "checkerboard") {
       if (ps.get_int("dimension", 2) != 2) error(at, "only 2D checkerboards are supported");
@@ -450,12 +459,14 @@ class PbrtScene final : public ParserTarget {
     } else if (cls == "scale") {
       const ColorParam a = color(ps, "tex", {1, 1, 1}, is_float), s = color(ps, "scale", {1, 1, 1}, true);
       if (a.texture >= 0 && s.texture >= 0) error(at, "a scale texture of two textures is not supported");
-      if (a.texture < 0 && s.texture < 0) t.value = a.value * s.value;
-      else if (same(a.texture >= 0 ? s.value : a.value, {1, 1, 1})) {
-        t.index = a.texture >= 0 ? a.texture : s.texture;
-        t.value = a.texture >= 0 ? a.value : s.value;
+      if (a.texture < 0 && s.texture < 0) {
+        t.value = a.value * s.value;
       } else {
-        error(at, "a scale texture that scales an image is not supported (only constants, or a scale of 1)");
+        // A texture times a constant: a view of its texels with that factor.
+        const Color k = a.texture >= 0 ? s.value : a.value;
+        if (!(k.x >= 0 && k.y >= 0 && k.z >= 0)) error(at, "a scale texture's constant factor must be ≥ 0");
+        t.index = scaled(at, a.texture >= 0 ? a.texture : s.texture, k);
+        t.value = builder_.texture_stats(t.index).mean;
       }
     } else if (cls == "mix") {
       const ColorParam a = color(ps, "tex1", {0, 0, 0}, is_float), b = color(ps, "tex2", {1, 1, 1}, is_float);
