@@ -21,6 +21,7 @@
 #include "luz/camera/camera.h"
 #include "luz/camera/importance.h"
 #include "luz/device/cpu/render.h"
+#include "luz/io/error.h"
 #include "luz/io/load.h"
 #include "temp_dir.h"
 
@@ -310,6 +311,42 @@ TEST_F(CameraScenes, PrincipalPointOffsetShiftsTheImage) {
   EXPECT_NEAR(centroid_x(render(shifted), w, h), centroid_x(render(plain), w, h) - 8.0, 0.02);
 }
 
+// hdrfilm's crop_offset_x/y and crop_width/height: a film of the crop's
+// size whose pixels see what the whole film's pixels there saw; a crop that
+// leaves the film is refused at the film's line.
+TEST_F(CameraScenes, MitsubaFilmCropRendersItsPixels) {
+  const std::string view =
+      "<float name=\"fov\" value=\"40\"/><transform name=\"to_world\"><lookat origin=\"0, 0, 6\" target=\"0, 0, 0\" "
+      "up=\"0, 1, 0\"/></transform>\n";
+  const std::string text = quad_scene("perspective", view, "<scale value=\"0.6\"/>", 32, 24, 4);
+  const luz::Scene whole = load(text);
+  auto cropped = [&](const std::string& crop) {
+    std::string t = text;
+    const size_t at = t.find("<rfilter");
+    return t.insert(at, crop);
+  };
+  const luz::Scene part = load(cropped("<integer name=\"crop_offset_x\" value=\"8\"/><integer name=\"crop_offset_y\" "
+                                       "value=\"5\"/><integer name=\"crop_width\" value=\"16\"/><integer "
+                                       "name=\"crop_height\" value=\"10\"/>"));
+  ASSERT_EQ(part.camera.width, 16);
+  ASSERT_EQ(part.camera.height, 10);
+  for (float fx : {0.f, 7.5f, 16.f})
+    for (float fy : {0.f, 4.25f, 10.f}) {
+      const Ray a = part.camera.generate_ray(fx, fy), b = whole.camera.generate_ray(fx + 8.f, fy + 5.f);
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(a.d[k], b.d[k], 1e-6f);
+    }
+  EXPECT_EQ(load(cropped("<integer name=\"crop_offset_x\" value=\"30\"/>")).camera.width, 2);  // the rest of the row
+  try {
+    load(cropped("<integer name=\"crop_offset_x\" value=\"20\"/><integer name=\"crop_width\" value=\"16\"/>"));
+    ADD_FAILURE() << "a crop beyond the film was accepted";
+  } catch (const luz::InputError& e) {
+    EXPECT_EQ(e.line(), 6) << e.what();  // the <film>
+    EXPECT_NE(std::string(e.what()).find("the crop window [20, 36) × [0, 24) is empty or leaves the 32×24 film"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST_F(CameraScenes, ThinLensLoadsMitsubaParameters) {
   const std::string view =
       "<float name=\"fov\" value=\"40\"/><transform name=\"to_world\"><lookat origin=\"0, 0, 6\" target=\"0, 0, 0\" "
@@ -534,3 +571,26 @@ TEST(CameraImportance, IntegratesToOneOverTheFilm) {
 }
 
 }  // namespace
+
+// A crop window keeps its pixels' rays: the cropped film's position (fx,
+// fy) sees what (fx + x0, fy + y0) saw, for the thin lens (lens samples
+// too), a pinhole with its principal point moved, and the orthographic view.
+TEST(Camera, CropKeepsItsPixelsRays) {
+  Camera ortho = offset_pinhole(true);
+  ortho.type = CameraType::Orthographic;
+  for (const Camera& full : {tilted_lens(0.2f, 4.f), offset_pinhole(false), ortho}) {
+    Camera c = full;
+    c.crop(5, 7, 20, 11);
+    ASSERT_EQ(c.width, 20);
+    ASSERT_EQ(c.height, 11);
+    for (float fx : {0.f, 3.25f, 20.f})
+      for (float fy : {0.f, 10.5f, 11.f})
+        for (Vec2 u : {Vec2{0.5f, 0.5f}, Vec2{0.1f, 0.8f}}) {
+          const Ray a = c.generate_ray(fx, fy, u), b = full.generate_ray(fx + 5.f, fy + 7.f, u);
+          for (int k = 0; k < 3; ++k) {
+            EXPECT_NEAR(a.d[k], b.d[k], 2e-6f) << fx << " " << fy;
+            EXPECT_NEAR(a.o[k], b.o[k], 2e-6f) << fx << " " << fy;
+          }
+        }
+  }
+}

@@ -432,8 +432,12 @@ TEST_F(PbrtScene, UnusedParametersWarnAndUnsupportedThingsAreNamed) {
   }
   luz_test::expect_load_refused(write("cam.pbrt", "Camera \"realistic\"\nWorldBegin\n" + quad(-1, 1)), "cam.pbrt:1",
                                 "camera 'realistic' is not supported");
-  luz_test::expect_load_refused(write("crop.pbrt", "Film \"rgb\" \"float cropwindow\" [ 0 .5 0 .5 ]\nWorldBegin\n" + quad(-1, 1)),
-                                "crop.pbrt:1", "cropwindow is not supported");
+  luz_test::expect_load_refused(write("crop.pbrt", "Film \"rgb\" \"float cropwindow\" [ 0 .5 .5 .5 ]\nWorldBegin\n" + quad(-1, 1)),
+                                "crop.pbrt:1", "cropwindow needs 4 numbers x0 x1 y0 y1 with 0 ≤ x0 < x1 ≤ 1");
+  luz_test::expect_load_refused(
+      write("bounds.pbrt", "Film \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 16 \"integer pixelbounds\" [ 0 40 0 8 ]\n"
+                           "WorldBegin\n" + quad(-1, 1)),
+      "bounds.pbrt:1", "the crop window [0, 40) × [0, 8) is empty or leaves the 32×16 film");
 }
 
 TEST_F(PbrtScene, MaterialsMapOntoLuzModels) {
@@ -459,6 +463,35 @@ TEST_F(PbrtScene, MaterialsMapOntoLuzModels) {
   EXPECT_TRUE(d.blend);
   EXPECT_EQ(d.blend_weight, 0.25f);
   EXPECT_EQ(d.second.type, BsdfType::RoughPlastic);
+}
+
+// A film's cropwindow (fractions, from the top left; pbrt-v4's pixel
+// bounds: the ceiling of each times the resolution) or pixelbounds: a film
+// of the crop's size whose pixels see what the whole film's saw.
+TEST_F(PbrtScene, CropWindowAndPixelBounds) {
+  const std::string world = "WorldBegin\n" + quad(-1, 1);
+  auto film = [&](const std::string& extra) {
+    return "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 40 ]\n"
+           "Film \"rgb\" \"integer xresolution\" [ 30 ] \"integer yresolution\" [ 20 ] " + extra + "\n" + world;
+  };
+  const Scene whole = load_scene(write("whole.pbrt", film("")));
+  const Scene crop = load_scene(write("crop.pbrt", film("\"float cropwindow\" [ 0.25 0.75 0.1 0.5 ]")));
+  ASSERT_EQ(crop.camera.width, 15);   // ceil(7.5) = 8 to ceil(22.5) = 23
+  ASSERT_EQ(crop.camera.height, 8);   // ceil(2) = 2 to ceil(10) = 10
+  const Scene bounds = load_scene(write("bounds.pbrt", film("\"integer pixelbounds\" [ 8 23 2 10 ]")));
+  for (const Scene* s : {&crop, &bounds}) {
+    ASSERT_EQ(s->camera.width, 15);
+    ASSERT_EQ(s->camera.height, 8);
+    for (float fx : {0.f, 6.5f, 15.f})
+      for (float fy : {0.f, 3.25f, 8.f}) {
+        const Ray a = s->camera.generate_ray(fx, fy), b = whole.camera.generate_ray(fx + 8.f, fy + 2.f);
+        for (int k = 0; k < 3; ++k) EXPECT_NEAR(a.d[k], b.d[k], 1e-6f);
+      }
+  }
+  const Scene both =
+      load_scene(write("both.pbrt", film("\"float cropwindow\" [ 0.25 0.75 0.1 0.5 ] \"integer pixelbounds\" [ 0 4 0 4 ]")));
+  EXPECT_EQ(both.camera.width, 15);
+  EXPECT_TRUE(luz_test::has_warning(both, "both cropwindow and pixelbounds given: the cropwindow is used"));
 }
 
 // An imagemap's `scale` and a `scale` texture over an image: the image's

@@ -28,6 +28,18 @@ struct Camera : CameraFrame {
   int width = 256, height = 256;
   ThinLens lens;  // CameraType::ThinLens only
 
+  // Keeps only the film's pixels [x0, x0 + w) × [y0, y0 + h) (a crop
+  // window): a film of w × h whose pixels see what those pixels saw. Host only.
+  void crop(int x0, int y0, int w, int h) {
+    const float sx = float(w) / float(width), sy = float(h) / float(height);
+    edge_x = (edge_x - 2.f * float(x0) / float(width)) / sx;
+    edge_y = (edge_y - 2.f * float(y0) / float(height)) / sy;
+    tan_half_x *= sx;
+    tan_half_y *= sy;
+    width = w;
+    height = h;
+  }
+
   // Whether camera_sample draws a lens sample: a thin lens of radius 0 is a
   // pinhole and draws none.
   LUZ_INLINE bool has_lens() const { return type == CameraType::ThinLens && lens.aperture_radius > 0.f; }

@@ -549,6 +549,15 @@ void SceneBuilder::set_camera(const SourceLoc& at, const Camera& cam, FovAxis ax
   has_camera_ = true;
 }
 
+void SceneBuilder::crop_camera(const SourceLoc& at, long x0, long x1, long y0, long y1) {
+  Camera& c = scene_.camera;
+  if (!(0 <= x0 && x0 < x1 && x1 <= c.width && 0 <= y0 && y0 < y1 && y1 <= c.height))
+    error(at, "the crop window [" + std::to_string(x0) + ", " + std::to_string(x1) + ") × [" + std::to_string(y0) +
+                  ", " + std::to_string(y1) + ") is empty or leaves the " + std::to_string(c.width) + "×" +
+                  std::to_string(c.height) + " film");
+  c.crop(int(x0), int(y0), int(x1 - x0), int(y1 - y0));
+}
+
 void SceneBuilder::frame_bounds(int width, int height) {
   resolve_instances();  // (only finish() may follow)
   scene_.compile();

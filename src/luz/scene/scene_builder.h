@@ -136,6 +136,9 @@ class SceneBuilder {
   // `axis`: what the field of view was given along (kept by a later
   // Scene::set_resolution).
   void set_camera(const SourceLoc& at, const Camera& camera, FovAxis axis = FovAxis::X);
+  // Renders only the camera's pixels [x0, x1) × [y0, y1) (a film's crop
+  // window), on a film of that size; after set_camera.
+  void crop_camera(const SourceLoc& at, long x0, long x1, long y0, long y1);
   bool has_camera() const { return has_camera_; }
   // A camera that frames the scene's bounds from +z (40° field of view) at
   // width × height: for formats without a camera (OBJ, PLY, glTF).

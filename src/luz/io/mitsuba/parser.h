@@ -115,7 +115,8 @@ class MitsubaParser {
   void parse_integrator(pugi::xml_node n);
   void parse_sensor(pugi::xml_node n);
   void parse_sampler(pugi::xml_node n);
-  void parse_film(pugi::xml_node n, int& width, int& height);
+  // The film's size, and its crop window (x0, x1, y0, y1) in pixels.
+  void parse_film(pugi::xml_node n, int& width, int& height, long crop[4]);
 
   // ---- bsdfs (bsdfs.cpp) ----
   Color checked_reflectance(pugi::xml_node n, Props& p, const char* name, Color def);

@@ -116,7 +116,9 @@ void MitsubaParser::parse_sensor(pugi::xml_node n) {
     error(n, "a sensor takes one <sampler>");
   if (std::distance(n.children("film").begin(), n.children("film").end()) > 1) error(n, "a sensor takes one <film>");
   for (pugi::xml_node c : n.children("sampler")) parse_sampler(c);
-  for (pugi::xml_node c : n.children("film")) parse_film(c, width, height);
+  long crop[4] = {0, 0, 0, 0};
+  pugi::xml_node film;
+  for (pugi::xml_node c : n.children("film")) parse_film(film = c, width, height, crop);
   cam.width = width;
   cam.height = height;
   double aspect = double(width) / height, t = std::tan(fov * M_PI / 360.0), tx, ty;
@@ -150,6 +152,8 @@ void MitsubaParser::parse_sensor(pugi::xml_node n) {
                            : axis == "smaller"          ? FovAxis::Smaller
                                                         : FovAxis::Larger;
   builder_.set_camera(loc(n), cam, fov_axis);  // the checks every format shares
+  if (film && (crop[0] != 0 || crop[1] != width || crop[2] != 0 || crop[3] != height))
+    builder_.crop_camera(loc(film), crop[0], crop[1], crop[2], crop[3]);
 }
 
 void MitsubaParser::parse_sampler(pugi::xml_node n) {
@@ -173,7 +177,7 @@ void MitsubaParser::parse_sampler(pugi::xml_node n) {
   p.check_all_used();
 }
 
-void MitsubaParser::parse_film(pugi::xml_node n, int& width, int& height) {
+void MitsubaParser::parse_film(pugi::xml_node n, int& width, int& height, long crop[4]) {
   std::string type = attr(n, "type");
   // ldrfilm differs from hdrfilm only in how the file is written (tone
   // mapping, gamma, 8 bits), and Luz picks the output format from -o's
@@ -185,6 +189,11 @@ void MitsubaParser::parse_film(pugi::xml_node n, int& width, int& height) {
   if (w < 1 || h < 1 || w > 65536 || h > 65536) error(n, "film size must be between 1 and 65536");
   width = int(w);
   height = int(h);
+  // The crop window: only those pixels are rendered and written (the
+  // output is crop_width × crop_height).
+  const long cx = p.get_int("crop_offset_x", 0, 0, 65536), cy = p.get_int("crop_offset_y", 0, 0, 65536);
+  const long cw = p.get_int("crop_width", w - cx, 1, 65536), ch = p.get_int("crop_height", h - cy, 1, 65536);
+  crop[0] = cx, crop[1] = cx + cw, crop[2] = cy, crop[3] = cy + ch;
   p.get_string("file_format", "openexr");
   // hdrfilm's pixel and component formats shape .exr outputs (ExrFormat);
   // when the film names neither, Luz writes 32-bit RGB. Luz's film has no

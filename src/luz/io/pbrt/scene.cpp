@@ -1307,10 +1307,25 @@ class PbrtScene final : public ParserTarget {
     ParamSet& fp = film_params_;
     const int w = fp.get_int("xresolution", 1280), h = fp.get_int("yresolution", 720);
     if (w < 1 || h < 1 || w > 65536 || h > 65536) error(film_loc_, "film resolution must be between 1 and 65536");
-    const std::vector<double> crop = fp.get_floats("cropwindow");
-    if (!crop.empty() && !(crop.size() == 4 && crop[0] == 0 && crop[1] == 1 && crop[2] == 0 && crop[3] == 1))
-      error(film_loc_, "a film cropwindow is not supported (render the whole image)");
-    if (fp.has("pixelbounds")) error(film_loc_, "film pixelbounds are not supported (render the whole image)");
+    // The pixels rendered, [x0, x1) × [y0, y1), as pbrt-v4's film finds
+    // them: pixelbounds, or a cropwindow in film fractions (ceil of each
+    // times the resolution; the cropwindow wins when both are given).
+    long bounds[4] = {0, w, 0, h};
+    const bool has_crop = fp.has("cropwindow"), has_pixels = fp.has("pixelbounds");
+    if (has_crop) {
+      const std::vector<double> c = fp.get_floats("cropwindow");
+      if (c.size() != 4 || !(0 <= c[0] && c[0] < c[1] && c[1] <= 1 && 0 <= c[2] && c[2] < c[3] && c[3] <= 1))
+        error(film_loc_, "cropwindow needs 4 numbers x0 x1 y0 y1 with 0 ≤ x0 < x1 ≤ 1 and 0 ≤ y0 < y1 ≤ 1");
+      for (int k = 0; k < 4; ++k) bounds[k] = long(std::ceil((k < 2 ? w : h) * c[size_t(k)]));
+      if (has_pixels) {
+        fp.get_ints("pixelbounds");
+        builder_.warn(film_loc_, "both cropwindow and pixelbounds given: the cropwindow is used (as pbrt-v4 does)");
+      }
+    } else if (has_pixels) {
+      const std::vector<int> b = fp.get_ints("pixelbounds");
+      if (b.size() != 4) error(film_loc_, "pixelbounds needs 4 integers x0 x1 y0 y1");
+      std::copy(b.begin(), b.end(), bounds);
+    }
     fp.get_string("filename", "");  // Luz names its output on the command line (-o)
     fp.get_bool("savefp16", true);
     fp.get_float("diagonal", 35);
@@ -1380,6 +1395,7 @@ class PbrtScene final : public ParserTarget {
     // pbrt's fov is along the shorter side (what a new resolution keeps);
     // an explicit screen window keeps its width.
     builder_.set_camera(at, cam, ps.has("screenwindow") ? FovAxis::X : FovAxis::Smaller);
+    if (has_crop || has_pixels) builder_.crop_camera(film_loc_, bounds[0], bounds[1], bounds[2], bounds[3]);
   }
 
   std::string path_;
