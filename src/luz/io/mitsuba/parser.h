@@ -230,7 +230,6 @@ class MitsubaParser {
   std::vector<std::unique_ptr<pugi::xml_document>> included_;  // kept: nodes point into them
   std::vector<std::string> include_stack_;  // files being read, outermost first
   bool have_sensor_ = false, have_integrator_ = false;
-  bool warned_smooth_angle_ = false;
   SceneBuilder builder_{path_};
   bool legacy_names_ = false;  // a Mitsuba 0.5/0.6 scene: camelCase parameter names
   int bsdf_depth_ = 0;

@@ -8,6 +8,7 @@
 #include "luz/io/mesh_ply.h"
 #include "luz/io/mesh_serialized.h"
 #include "luz/io/mitsuba/parser.h"
+#include "luz/scene/mesh_normals.h"
 
 namespace luz::mitsuba {
 
@@ -165,6 +166,8 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
   // Built-in shapes whose faces are flat: the normal given by the normal
   // transform sets the winding, then the geometric normal is exact.
   bool flat = true;
+  bool face_normals = false;  // a mesh file's: shade flat
+  double smooth_angle = -1;   // a mesh file's max_smooth_angle (< 0: none)
   if (type == "sphere") {
     if (object >= 0) error(n, "a sphere inside a shapegroup is not supported (objects hold triangle meshes)");
     refuse_texture("a sphere is not supported (no texture coordinates)");
@@ -219,21 +222,17 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
         idx.insert(idx.end(), {base, base + 1, base + 2, base + 2, base + 3, base});
       }
   } else {
-    // Meshes from files. Meshes without normals shade flat (Mitsuba would
-    // compute smooth vertex normals), as Luz's OBJ meshes do.
+    // Meshes from files. Without normals they get smooth vertex normals
+    // (Mitsuba 3's), unless face_normals; Mitsuba 0.5/0.6's max_smooth_angle
+    // rebuilds them, smooth across edges below the angle and creased above
+    // (mesh_normals.h).
     flat = false;
     std::string file = p.get_string("filename", "");
     if (file.empty()) error(n, type + " shape needs a 'filename'");
-    bool face_normals = p.get_bool("face_normals", false);
-    // Mitsuba 0.5's max_smooth_angle rebuilds vertex normals, smoothing
-    // across edges below the angle; Luz keeps the file's normals (or shades
-    // flat without them) and says so.
+    face_normals = p.get_bool("face_normals", false);
     if (p.has("max_smooth_angle")) {
-      p.get_float("max_smooth_angle", 0.0);
-      if (!warned_smooth_angle_)
-        builder_.warn(loc(n), "max_smooth_angle is not supported: the files' vertex normals are used as they are "
-                              "(said once for the scene)");
-      warned_smooth_angle_ = true;
+      smooth_angle = p.get_float("max_smooth_angle", 0.0);
+      if (!(smooth_angle >= 0 && smooth_angle <= 180)) error(n, "max_smooth_angle must be between 0 and 180 degrees");
     }
     bool replaced = false;
     const fs::path full = mesh_file(n, file, type, replaced);
@@ -286,6 +285,14 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
   const bool analytic = type != "obj" && type != "ply" && type != "serialized";
   for (Vec3& v : pos) v = to_world.point(v);
   for (Vec3& v : nrm) v = to_world.normal(v);
+  // From the world's positions and the file's winding, as Mitsuba does.
+  if (!analytic && !face_normals && (nrm.empty() || smooth_angle >= 0)) {
+    compute_vertex_normals(pos, idx, uv, nrm, smooth_angle);
+    // Planar faces that share no vertex across an edge (a box's walls):
+    // every normal is its faces' own, which flat shading gives exactly and
+    // sooner.
+    if (normals_are_flat(pos, idx, nrm)) nrm.clear();
+  }
   for (size_t k = 0; k + 2 < idx.size(); k += 3) {
     Vec3 g = cross(pos[idx[k + 1]] - pos[idx[k]], pos[idx[k + 2]] - pos[idx[k]]);
     if (length(g) == 0.f) continue;
