@@ -1,6 +1,8 @@
 // Mesh files as scenes (OBJ, PLY) and a scene rendered at another size.
 #include <gtest/gtest.h>
 
+#include <array>
+
 #include <cmath>
 
 #include "scene_helpers.h"
@@ -60,7 +62,19 @@ TEST(MeshScene, SetResolutionKeepsTheFieldOfViewAxis) {
   }
 }
 
-class MeshSceneFiles : public TempDirTest {};
+class MeshSceneFiles : public TempDirTest {
+ protected:
+  // STEM.obj: one triangle per material of STEM.mtl (`mtl`), in the order of
+  // `names` (with texture coordinates when `uvs`), loaded: its first three
+  // materials are those.
+  luz::Scene three_faces(const std::string& stem, const std::string& mtl, const std::array<std::string, 3>& names,
+                         bool uvs) {
+    write(stem + ".mtl", mtl);
+    std::string obj = "mtllib " + stem + ".mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\n" + (uvs ? "vt 0 0\nvt 1 0\nvt 0 1\n" : "");
+    for (const std::string& n : names) obj += "usemtl " + n + (uvs ? "\nf 1/1 2/2 3/3\n" : "\nf 1 2 3\n");
+    return luz::load_scene(write(stem + ".obj", obj));
+  }
+};
 
 // A PLY scene's errors come from the reader, naming the file.
 TEST_F(MeshSceneFiles, BadPlyIsRefused) {
@@ -74,14 +88,10 @@ namespace {
 
 // An MTL's illum models, constants and maps as Luz materials.
 TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {
-  write("m.mtl",
-        "newmtl mirror\nKd 0.01 0.01 0.01\nKs 0.9 0.8 0.7\nillum 5\n"
-        "newmtl glass\nKs 0.3 0.3 0.3\nTf 0.5 0.6 0.7\nNi 1.7\nillum 7\n"
-        "newmtl cut\nKd 0.4 0.4 0.4\nd 0.25\n");
-  const std::string obj = write("m.obj",
-                                "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl mirror\nf 1 2 3\n"
-                                "usemtl glass\nf 1 3 2\nusemtl cut\nf 1 2 3\n");
-  luz::Scene s = luz::load_scene(obj);
+  luz::Scene s = three_faces("m", "newmtl mirror\nKd 0.01 0.01 0.01\nKs 0.9 0.8 0.7\nillum 5\n"
+                                  "newmtl glass\nKs 0.3 0.3 0.3\nTf 0.5 0.6 0.7\nNi 1.7\nillum 7\n"
+                                  "newmtl cut\nKd 0.4 0.4 0.4\nd 0.25\n",
+                             {"mirror", "glass", "cut"}, false);
   ASSERT_GE(s.materials.size(), 3u);
   const luz::Bsdf& mirror = s.materials[0].bsdf;
   EXPECT_EQ(mirror.type, luz::BsdfType::SmoothConductor);
@@ -142,14 +152,10 @@ TEST_F(MeshSceneFiles, MapKdFollowsTheTextureCoordinates) {
 TEST_F(MeshSceneFiles, MapNsScalesTheExponent) {
   luz::Image tex{2, 1, {64.f / 255.f, 64.f / 255.f, 64.f / 255.f, 1.f, 1.f, 1.f}};
   luz::write_image((dir / "ns.pfm").string(), tex);
-  write("ns.mtl",
-        "newmtl gloss\nKd 0.3 0.3 0.3\nKs 0.5 0.5 0.5\nNs 100\nmap_Ns ns.pfm\n"
-        "newmtl matte\nKd 0.5 0.5 0.5\nNs 100\nmap_Ns ns.pfm\n"
-        "newmtl mirror\nKs 0.9 0.9 0.9\nillum 3\nmap_Kd ns.pfm\nmap_Ks ns.pfm\n");
-  const std::string obj = write("ns.obj",
-                                "mtllib ns.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\n"
-                                "usemtl gloss\nf 1/1 2/2 3/3\nusemtl matte\nf 1/1 3/3 2/2\nusemtl mirror\nf 1/1 2/2 3/3\n");
-  luz::Scene s = luz::load_scene(obj);
+  luz::Scene s = three_faces("ns", "newmtl gloss\nKd 0.3 0.3 0.3\nKs 0.5 0.5 0.5\nNs 100\nmap_Ns ns.pfm\n"
+                                   "newmtl matte\nKd 0.5 0.5 0.5\nNs 100\nmap_Ns ns.pfm\n"
+                                   "newmtl mirror\nKs 0.9 0.9 0.9\nillum 3\nmap_Kd ns.pfm\nmap_Ks ns.pfm\n",
+                             {"gloss", "matte", "mirror"}, true);
   ASSERT_GE(s.materials.size(), 3u);
   ASSERT_EQ(s.materials[0].num_bindings, 1u);
   EXPECT_EQ(s.texture_bindings[s.materials[0].first_binding].param, luz::BsdfParam::Exponent);
