@@ -741,7 +741,8 @@ int run(int argc, char** argv, luz::MpiJob* job) {
     // --help (and the like) print to stdout and succeed; a real parse error is
     // one line on stderr (CLI11's own printer adds a second "Run with --help").
     if (e.get_exit_code() == 0) return app.exit(e);
-    return report("luz: error: " + luz::InputError::one_line(e.what()) + " (see luz render --help)", kExitBadInput);
+    const char* help = ic->parsed() ? "luz info --help" : rc->parsed() ? "luz render --help" : "luz --help";
+    return report("luz: error: " + luz::InputError::one_line(e.what()) + " (see " + help + ")", kExitBadInput);
   }
   // Every error is one line: "file:line: error: problem" when it concerns a
   // file, "luz: error: problem" otherwise.
