@@ -355,8 +355,11 @@ TEST_F(Cli, BadFlags) {
   expect_bad({"render", "scene.xml", "--max-depth", "0"}, "", 0, "--max-depth");
   expect_bad({"render", "scene.xml", "--threads", "-1"}, "", 0, "--threads");
   expect_bad({"render", "scene.xml", "--bogus"}, "", 0, "--bogus");
+  expect_bad({"render", "scene.xml", "--bogus"}, "", 0, "(see luz render --help)");
+  expect_bad({"info", "scene.xml", "--res", "8x8"}, "", 0, "(see luz info --help)");
   expect_bad({"render"}, "", 0, "scene");
   expect_bad({}, "", 0, "subcommand");
+  expect_bad({}, "", 0, "(see luz --help)");
   expect_bad({"paint", "scene.xml"}, "", 0, "subcommand");
 }
 
