@@ -494,7 +494,8 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
                      : (" + " + std::to_string(scene.num_instanced_triangles()) + " placed by " +
                         std::to_string(scene.instances.size()) + " instances")
                            .c_str(),
-                 scene.spheres.size(), scene.spheres.size() == 1 ? "" : "s", scene.lights.size(), scene.lights.size() == 1 ? "" : "s", load_seconds,
+                 scene.spheres.size(), scene.spheres.size() == 1 ? "" : "s", scene.lights.size(),
+                 scene.lights.size() == 1 ? "" : "s", load_seconds,
                  use_cuda ? luz::cuda_device_name().c_str()
                  : job    ? (std::to_string(job->size()) + " MPI rank" + (job->size() == 1 ? "" : "s") + " (" +
                           std::to_string(o.threads) + " threads on rank 0)")

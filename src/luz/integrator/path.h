@@ -200,7 +200,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
           light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(it.emitter)) * pdf_li(light, prev_ctx, ray.d, {it.ng, hit.t}, lights.data);
       }
     }
-    if (!is_black(Le) && !(depth == 1 && params.hide_emitters)) {
+    if (!is_black(Le) && ((depth > 1) | !params.hide_emitters)) {  // no branch for the flag
       float w = 1.f;
       if (weigh) {
         if (params.type == IntegratorType::Light) w = 0.f;

@@ -91,9 +91,7 @@ MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjM
   // MTL specification has it.
   if (!m.map_ns.empty()) {
     if (phong) {
-      Texture t = builder.scene().textures[size_t(image(m.map_ns, false))];
-      t.scale = Color{m.ns, m.ns, m.ns};
-      const int32_t ns = builder.add_texture(at, t);
+      const int32_t ns = builder.add_scaled_texture(at, image(m.map_ns, false), Color{m.ns, m.ns, m.ns});
       d.bindings.push_back({ns, BsdfPart::Front, BsdfParam::Exponent});
       d.bsdf.phong.exponent = luminance(builder.texture_stats(ns).mean);  // a textured parameter holds its mean
     } else {

@@ -39,13 +39,22 @@ void compute_vertex_normals(std::vector<Vec3>& positions, std::vector<uint32_t>&
   const double cos_max = crease ? std::cos(max_angle_deg * M_PI / 180.0) : -2.0;
   normals.assign(nv, Vec3{});
   std::vector<int32_t> group(indices.size(), -1);  // per corner, its group at its vertex
+  std::vector<uint32_t> vertex_of;                 // per group of the vertex at hand: its vertex
+  std::vector<Vec3> sum;                           // and its angle-weighted normal sum
   for (size_t v = 0; v < nv; ++v) {
     const uint32_t a = start[v], b = start[v + 1];
-    int32_t groups = 0;
+    vertex_of.clear();
     for (uint32_t i = a; i < b; ++i) {
       const uint32_t ci = corners[i];
       if (group[ci] >= 0 || length(fn[ci / 3]) == 0.f) continue;  // degenerate faces join group 0 below
-      const int32_t g = groups++;
+      // Group 0 keeps the vertex; each other group gets a copy.
+      const int32_t g = int32_t(vertex_of.size());
+      vertex_of.push_back(g == 0 ? uint32_t(v) : uint32_t(positions.size()));
+      if (g > 0) {
+        positions.push_back(positions[v]);
+        if (!uvs.empty()) uvs.push_back(uvs[v]);
+        normals.push_back(Vec3{});
+      }
       group[ci] = g;
       const Vec3 seed = fn[ci / 3];
       for (uint32_t j = i + 1; j < b; ++j) {
@@ -53,33 +62,20 @@ void compute_vertex_normals(std::vector<Vec3>& positions, std::vector<uint32_t>&
         if (group[cj] < 0 && (!crease || double(dot(seed, fn[cj / 3])) > cos_max)) group[cj] = g;
       }
     }
-    for (uint32_t i = a; i < b; ++i)
-      if (group[corners[i]] < 0) group[corners[i]] = 0;
-    if (groups == 0 && b > a) groups = 1;
-    // Group 0 keeps the vertex; each other group gets a copy.
-    std::vector<uint32_t> vertex_of(static_cast<size_t>(groups), static_cast<uint32_t>(v));
-    for (int32_t g = 1; g < groups; ++g) {
-      vertex_of[size_t(g)] = uint32_t(positions.size());
-      positions.push_back(positions[v]);
-      if (!uvs.empty()) uvs.push_back(uvs[v]);
-      normals.push_back(Vec3{});
-    }
-    // Each group's angle-weighted normal.
-    std::vector<Vec3> sum(size_t(groups), Vec3{});
-    std::vector<Vec3> first(size_t(groups), Vec3{});  // the group's first non-degenerate face normal
-    std::vector<char> has_first(size_t(groups), 0);
+    if (vertex_of.empty()) vertex_of.push_back(uint32_t(v));
+    sum.assign(vertex_of.size(), Vec3{});
     for (uint32_t i = a; i < b; ++i) {
       const uint32_t c = corners[i], f = c / 3, j = c % 3;
+      if (group[c] < 0) group[c] = 0;
       const Vec3& p = positions[v];
       const Vec3 e1 = positions[indices[3 * f + (j + 1) % 3]] - p, e2 = positions[indices[3 * f + (j + 2) % 3]] - p;
-      const size_t g = size_t(group[c]);
-      sum[g] = sum[g] + fn[f] * float(angle_between(e1, e2));
-      if (!has_first[g] && length(fn[f]) > 0.f) first[g] = fn[f], has_first[g] = 1;
+      sum[size_t(group[c])] = sum[size_t(group[c])] + fn[f] * float(angle_between(e1, e2));
     }
-    for (int32_t g = 0; g < groups; ++g) {
-      const Vec3 s = sum[size_t(g)];
-      const float l = length(s);
-      normals[vertex_of[size_t(g)]] = l > 0.f && std::isfinite(l) ? s / l : first[size_t(g)];
+    // A group's seed face is not degenerate, so its sum is not 0 unless its
+    // faces' angles all are (then the vertex's normal stays 0).
+    for (size_t g = 0; g < vertex_of.size(); ++g) {
+      const float l = length(sum[g]);
+      normals[vertex_of[g]] = l > 0.f && std::isfinite(l) ? sum[g] / l : Vec3{};
     }
     for (uint32_t i = a; i < b; ++i) indices[corners[i]] = vertex_of[size_t(group[corners[i]])];
   }

@@ -13,9 +13,8 @@ namespace luz {
 
 // Sets `normals` (one per vertex) to the angle-weighted sum of the unit face
 // normals around each vertex, normalised: the face normal weighted by the
-// face's angle at the vertex, as Mitsuba 3's recompute_vertex_normals.
-// A vertex of degenerate faces only gets the normal of its first face (0 if
-// none has one).
+// face's angle at the vertex, as Mitsuba 3's recompute_vertex_normals
+// (0 at a vertex of degenerate faces only).
 //
 // max_angle_deg ≥ 0 (Mitsuba 0.6's maxSmoothAngle): first, at each vertex,
 // the faces around it are grouped: each face not yet grouped starts a group

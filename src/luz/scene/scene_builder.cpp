@@ -549,6 +549,13 @@ void SceneBuilder::set_camera(const SourceLoc& at, const Camera& cam, FovAxis ax
   has_camera_ = true;
 }
 
+int32_t SceneBuilder::add_scaled_texture(const SourceLoc& at, int32_t index, Color k) {
+  if (k.x == 1.f && k.y == 1.f && k.z == 1.f) return index;
+  Texture t = scene_.textures[size_t(index)];
+  t.scale = t.scale * k;
+  return add_texture(at, t);
+}
+
 void SceneBuilder::crop_camera(const SourceLoc& at, long x0, long x1, long y0, long y1) {
   Camera& c = scene_.camera;
   if (!(0 <= x0 && x0 < x1 && x1 <= c.width && 0 <= y0 && y0 < y1 && y1 <= c.height))

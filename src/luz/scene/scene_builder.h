@@ -99,6 +99,9 @@ class SceneBuilder {
   // Another view of texels already added (a channel, a scale, other lookup
   // settings: texture.h), e.g. a copy of an earlier texture changed.
   int32_t add_texture(const SourceLoc& at, const Texture& texture);
+  // Texture `index` with every value times k (per channel, ≥ 0): a view of
+  // the same texels (the texture itself when k is 1).
+  int32_t add_scaled_texture(const SourceLoc& at, int32_t index, Color k);
   // (Of textures added as texels or views of them: computed when first asked for.)
   const TextureStats& texture_stats(int32_t texture) const;
 

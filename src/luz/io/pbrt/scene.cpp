@@ -398,14 +398,6 @@ class PbrtScene final : public ParserTarget {
   }
 
   // ---- textures ----
-  // Texture `index` with every value times k (itself when k is 1).
-  int32_t scaled(const SourceLoc& at, int32_t index, Color k) {
-    if (same(k, {1, 1, 1})) return index;
-    Texture t = builder_.scene().textures[size_t(index)];
-    t.scale = t.scale * k;
-    return builder_.add_texture(at, t);
-  }
-
   void texture(const SourceLoc& at, const std::string& name, const std::string& type, const std::string& cls,
                ParamSet raw) override {
     in_world(at, "Texture");
@@ -442,7 +434,7 @@ class PbrtScene final : public ParserTarget {
       // Luz looks the image up at (s, t) from its top-left; pbrt at (s, 1 - t)
       // with (s, t) = (su u + du, sv v + dv), and Luz's v is 1 - pbrt's.
       d.to_uv = {float(su), 0.f, float(du), 0.f, float(sv), float(1 - sv - dv)};
-      t.index = scaled(at, builder_.add_image_texture(at, d), Color{float(scale), float(scale), float(scale)});
+      t.index = builder_.add_scaled_texture(at, builder_.add_image_texture(at, d), Color{float(scale), float(scale), float(scale)});
       t.value = builder_.texture_stats(t.index).mean;
     } else if (cls == "checkerboard") {
       if (ps.get_int("dimension", 2) != 2) error(at, "only 2D checkerboards are supported");
@@ -465,7 +457,7 @@ class PbrtScene final : public ParserTarget {
         // A texture times a constant: a view of its texels with that factor.
         const Color k = a.texture >= 0 ? s.value : a.value;
         if (!(k.x >= 0 && k.y >= 0 && k.z >= 0)) error(at, "a scale texture's constant factor must be ≥ 0");
-        t.index = scaled(at, a.texture >= 0 ? a.texture : s.texture, k);
+        t.index = builder_.add_scaled_texture(at, a.texture >= 0 ? a.texture : s.texture, k);
         t.value = builder_.texture_stats(t.index).mean;
       }
     } else if (cls == "mix") {
