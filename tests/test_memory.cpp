@@ -16,24 +16,11 @@
 
 #include "cli_helpers.h"
 #include "luz/io/error.h"
+#include "sanitizer.h"
 
 namespace {
 
 using namespace luz_test;
-
-// AddressSanitizer reserves terabytes of address space for its shadow: no
-// address-space limit can hold it (the sanitizer build, scripts/sanitize).
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAsan = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAsan = true;
-#else
-constexpr bool kAsan = false;
-#endif
-#else
-constexpr bool kAsan = false;
-#endif
 
 // A "Key: value kB" line of a /proc file, in bytes (0 when absent).
 uint64_t proc_bytes(const char* path, const std::string& key) {
@@ -55,7 +42,7 @@ TEST(Memory, AvailableIsAtMostTheKernels) {
 // In a child process (the limit is for good): the headroom under RLIMIT_AS,
 // a request that fits, one that does not and its message.
 TEST(Memory, AddressSpaceLimitIsHonoured) {
-  if (kAsan) GTEST_SKIP() << "under AddressSanitizer";
+  if (kAsan) GTEST_SKIP() << "under AddressSanitizer (its shadow memory exceeds any address-space limit)";
   const pid_t pid = ::fork();
   if (pid == 0) {
     const uint64_t size = proc_bytes("/proc/self/status", "VmSize:"), room = uint64_t(512) << 20;
@@ -102,7 +89,7 @@ class MemoryCli : public LuzCliTest {
  protected:
   // luz with `args` under `ulimit -v` of `mib` MiB.
   void SetUp() override {
-    if (kAsan) GTEST_SKIP() << "under AddressSanitizer";
+    if (kAsan) GTEST_SKIP() << "under AddressSanitizer (its shadow memory exceeds any address-space limit)";
     LuzCliTest::SetUp();
   }
 
