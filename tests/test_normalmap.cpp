@@ -113,6 +113,34 @@ class NormalMap : public TempDirTest {
       }
   }
   static double lambert(D3 n, D3 light_dir) { return kAlbedo / M_PI * kE * std::max(0.0, -dot(unit(n), unit(light_dir))); }
+  // The shading frame at hits on the quad's two triangles, seen from
+  // straight above, within the ramp's linear part (u in (0.15, 0.85)): its
+  // normal is `want`, it.ns follows it (light sampling reads it), and its
+  // tangent stays along dp/du, within `tilt` of it.
+  static void expect_frame(const Scene& s, D3 want, double tilt) {
+    const SceneView v = s.view();
+    ASSERT_EQ(v.num_triangles, 2u);
+    int checked = 0;
+    for (uint32_t prim = 0; prim < 2; ++prim)
+      for (float bu : {0.2f, 0.45f})
+        for (float bv : {0.1f, 0.3f}) {
+          Hit hit;
+          hit.prim = prim, hit.u = bu, hit.v = bv, hit.t = 4.f;
+          Ray ray{{0, 0, 4}, {0, 0, -1}};
+          Interaction it = v.interaction(ray, hit);
+          const Vec2 uv = v.hit_uv(hit);
+          if (!(uv.x > 0.15f && uv.x < 0.85f)) continue;
+          const Frame fr = v.shading_frame(it, hit);
+          EXPECT_NEAR(fr.n.x, want.x, 1e-5) << prim << " " << bu << " " << bv;
+          EXPECT_NEAR(fr.n.y, want.y, 1e-5);
+          EXPECT_NEAR(fr.n.z, want.z, 1e-5);
+          EXPECT_EQ(it.ns.x, fr.n.x);
+          EXPECT_NEAR(dot(fr.s, fr.n), 0.f, 1e-6f);
+          EXPECT_GT(fr.s.x, 0.99f * std::cos(tilt));
+          ++checked;
+        }
+    EXPECT_GE(checked, 4);
+  }
 };
 
 }  // namespace
@@ -160,32 +188,64 @@ TEST_F(NormalMap, BumpRampTiltsTheNormalByItsSlope) {
   const double scale = 20.0 * std::tan(25.0 * M_PI / 180.0);
   const std::string ramp = write_map("ramp.pfm", 4, 1, [](int i, int) { return D3{0.25 * i, 0.25 * i, 0.25 * i}; });
   const std::string xml = scene_xml(bumpmap(ramp, scale), {0, 0, -1});
-  Scene s = load_scene(write("frame.xml", xml));
-  const SceneView v = s.view();
   const D3 want = unit({-scale / 20.0, 0, 1});
-  ASSERT_EQ(v.num_triangles, 2u);
-  for (uint32_t prim = 0; prim < 2; ++prim)
-    for (float bu : {0.2f, 0.45f})
-      for (float bv : {0.1f, 0.3f}) {
-        Hit hit;
-        hit.prim = prim, hit.u = bu, hit.v = bv, hit.t = 4.f;
-        Ray ray{{0, 0, 4}, {0, 0, -1}};
-        Interaction it = v.interaction(ray, hit);
-        const Vec2 uv = v.hit_uv(hit);
-        if (!(uv.x > 0.15f && uv.x < 0.85f)) continue;  // outside the ramp's linear part
-        const Frame fr = v.shading_frame(it, hit);
-        EXPECT_NEAR(fr.n.x, want.x, 1e-5) << prim << " " << bu << " " << bv;
-        EXPECT_NEAR(fr.n.y, want.y, 1e-5);
-        EXPECT_NEAR(fr.n.z, want.z, 1e-5);
-        EXPECT_EQ(it.ns.x, fr.n.x);  // it.ns follows the frame (light sampling reads it)
-        EXPECT_NEAR(dot(fr.s, fr.n), 0.f, 1e-6f);
-        EXPECT_GT(fr.s.x, 0.99f * std::cos(25.0 * M_PI / 180.0));  // the tangent stays along dp/du
-      }
+  expect_frame(load_scene(write("frame.xml", xml)), want, 25.0 * M_PI / 180.0);
   // Rendered: lit from the side the normal turns to, and from the other.
   for (D3 d : {D3{0.5, 0.1, -1}, D3{-0.4, 0.2, -1}}) {
     const Film f = render(bumpmap(ramp, scale), d);
     expect_uniform(f, lambert(want, d));
   }
+}
+
+// pbrt-v4's displacement is the same bump map at scale 1 (io/pbrt/scene.cpp),
+// of its float texture: the first channel (as pbrt-v4's float image textures
+// read it; green and blue differ here and must not count) times the
+// imagemap's `scale`. The quad's uv spans it as the rectangle's does above:
+// tan(tilt) = scale · 1 / 20.
+TEST_F(NormalMap, PbrtDisplacementIsTheBumpOfItsFloatTexture) {
+  write_map("red.pfm", 4, 1, [](int i, int) { return D3{0.25 * i, 0.9, 0.1 * i}; });
+  for (double scale : {1.0, 8.0}) {
+    const std::string file = write("bump.pbrt", R"(LookAt 0 0 4  0 0 0  0 1 0
+Camera "perspective" "float fov" 40
+Film "rgb" "integer xresolution" 16 "integer yresolution" 16
+WorldBegin
+LightSource "distant" "point3 from" [0 0 1] "point3 to" [0 0 0]
+Texture "h" "float" "imagemap" "string filename" "red.pfm" "string wrap" "clamp" "float scale" )" +
+                                                std::to_string(scale) + R"(
+Material "diffuse" "texture displacement" "h"
+Shape "trianglemesh" "point3 P" [-10 -10 0  10 -10 0  10 10 0  -10 10 0] "integer indices" [0 1 2  0 2 3]
+  "point2 uv" [0 0  1 0  1 1  0 1]
+)");
+    Scene s = load_scene(file);
+    EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
+    SCOPED_TRACE("scale " + std::to_string(scale));
+    expect_frame(s, unit({-scale / 20.0, 0, 1}), std::atan(scale / 20.0));
+  }
+}
+
+// A normal map wins over displacement (pbrt-v4 uses it alone): said in a warning.
+TEST_F(NormalMap, PbrtNormalMapWinsOverDisplacement) {
+  write_map("h.pfm", 4, 1, [](int i, int) { return D3{0.25 * i, 0.25 * i, 0.25 * i}; });
+  write_normal("n.pfm", unit({0.3, 0, 1}));
+  const std::string file = write("both.pbrt", R"(Camera "perspective"
+WorldBegin
+LightSource "distant"
+Texture "h" "float" "imagemap" "string filename" "h.pfm"
+Material "diffuse" "texture displacement" "h" "string normalmap" "n.pfm"
+Shape "trianglemesh" "point3 P" [-1 -1 0  1 -1 0  1 1 0] "integer indices" [0 1 2] "point2 uv" [0 0  1 0  1 1]
+)");
+  Scene s = load_scene(file);
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("both.pbrt:5: warning: displacement is ignored: the material has a normalmap"),
+            std::string::npos)
+      << s.warnings[0];
+  int mapped = 0;
+  for (const Material& m : s.materials)
+    if (m.normal_map >= 0) {
+      EXPECT_LT(m.bump_map, 0);
+      ++mapped;
+    }
+  EXPECT_EQ(mapped, 1);
 }
 
 TEST_F(NormalMap, BadInputIsRefused) {

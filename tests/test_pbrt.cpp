@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -523,6 +524,81 @@ TEST_F(PbrtScene, ScaledImageTextures) {
       write("neg.pbrt", scene_text("", "Texture \"img\" \"spectrum\" \"imagemap\" \"string filename\" \"t.pfm\" \"float scale\" -1\n" +
                                           quad(-1, 1))),
       "neg.pbrt:6", "imagemap 'scale' must be finite and ≥ 0");
+}
+
+// pbrt-v4's mix (by a constant or a float texture), scale of two textures,
+// imagemap `invert` (float and spectrum), checkerboard of textures and a
+// float imagemap's first channel, evaluated at the texel centres of 2×1
+// images, where a bilinear lookup is the texel: each against its formula.
+TEST_F(PbrtScene, MixScaleInvertAndCheckerboardOfTextures) {
+  using luz::Image;
+  luz::write_image((dir / "t.pfm").string(), Image{2, 1, {0.25f, 0.5f, 1.f, 1.f, 1.f, 1.f}});
+  luz::write_image((dir / "u.pfm").string(), Image{2, 1, {0.5f, 0.f, 0.1f, 0.f, 0.5f, 0.2f}});
+  luz::write_image((dir / "w.pfm").string(), Image{2, 1, {0.25f, 0.9f, 0.9f, 0.75f, 0.1f, 0.1f}});  // float: red
+  const double T[2][3] = {{0.25, 0.5, 1}, {1, 1, 1}}, U[2][3] = {{0.5, 0, 0.1}, {0, 0.5, 0.2}}, W[2] = {0.25, 0.75};
+  const double C[3] = {0.2, 0.4, 0.6};
+  struct Case {
+    const char* name;
+    const char* texture;
+    std::function<double(int side, int c)> want;
+  } cases[] = {
+      {"mixc", "\"spectrum\" \"mix\" \"texture tex1\" \"t\" \"texture tex2\" \"u\" \"float amount\" 0.25",
+       [&](int i, int c) { return 0.75 * T[i][c] + 0.25 * U[i][c]; }},
+      {"mixw", "\"spectrum\" \"mix\" \"texture tex1\" \"t\" \"rgb tex2\" [ 0.2 0.4 0.6 ] \"texture amount\" \"w\"",
+       [&](int i, int c) { return (1 - W[i]) * T[i][c] + W[i] * C[c]; }},
+      {"mixi", "\"spectrum\" \"mix\" \"texture tex1\" \"t\" \"texture tex2\" \"u\" \"texture amount\" \"winv\"",
+       [&](int i, int c) { return W[i] * T[i][c] + (1 - W[i]) * U[i][c]; }},
+      {"prod", "\"spectrum\" \"scale\" \"texture tex\" \"t\" \"texture scale\" \"w\"",
+       [&](int i, int c) { return T[i][c] * W[i]; }},
+      {"prodi", "\"spectrum\" \"scale\" \"texture tex\" \"u\" \"texture scale\" \"winv\"",
+       [&](int i, int c) { return U[i][c] * (1 - W[i]); }},
+      {"tinv", "\"spectrum\" \"imagemap\" \"string filename\" \"t.pfm\" \"bool invert\" true",
+       [&](int i, int c) { return 1 - T[i][c]; }},
+      // uscale 2: tex1 on u < 1/2 (floor(s) + floor(t) even), tex2 beyond.
+      {"cb", "\"spectrum\" \"checkerboard\" \"texture tex1\" \"t\" \"rgb tex2\" [ 0.2 0.4 0.6 ] \"float uscale\" 2",
+       [&](int i, int c) { return i == 0 ? T[0][c] : C[c]; }},
+  };
+  std::string world = quad(2, 3) +
+                      "Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"t.pfm\"\n"
+                      "Texture \"u\" \"spectrum\" \"imagemap\" \"string filename\" \"u.pfm\"\n"
+                      "Texture \"w\" \"float\" \"imagemap\" \"string filename\" \"w.pfm\"\n"
+                      "Texture \"winv\" \"float\" \"imagemap\" \"string filename\" \"w.pfm\" \"bool invert\" true\n";
+  const std::string square =
+      "Shape \"trianglemesh\" \"point3 P\" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ] \"point2 uv\" [ 0 0  1 0  1 1  0 1 ]\n"
+      "  \"integer indices\" [ 0 1 2 0 2 3 ]\n";
+  for (const Case& c : cases)
+    world += std::string("Texture \"") + c.name + "\" " + c.texture + "\nMaterial \"diffuse\" \"texture reflectance\" \"" +
+             c.name + "\"\n" + square;
+  Scene s = load_scene(write("mix.pbrt", scene_text("", world)));
+  EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
+  std::vector<int32_t> textures;
+  for (const Material& m : s.materials)
+    if (m.num_bindings == 1) textures.push_back(s.texture_bindings[m.first_binding].texture);
+  ASSERT_EQ(textures.size(), std::size(cases));
+  const SceneView v = s.view();
+  for (size_t k = 0; k < textures.size(); ++k)
+    for (int side = 0; side < 2; ++side) {
+      const Color got = v.textures.eval(uint32_t(textures[k]), {side ? 0.75f : 0.25f, 0.5f});
+      for (int ch = 0; ch < 3; ++ch)
+        EXPECT_NEAR(got[ch], cases[k].want(side, ch), 1e-6) << cases[k].name << " side " << side << " channel " << ch;
+    }
+
+  const std::string base = quad(2, 3) + "Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"t.pfm\"\n";
+  struct Bad {
+    const char* world;
+    const char* problem;
+  } bad[] = {
+      {"Texture \"m\" \"spectrum\" \"mix\" \"texture tex1\" \"t\"\n"
+       "Texture \"mm\" \"spectrum\" \"mix\" \"texture tex1\" \"m\" \"texture tex2\" \"t\"\n",
+       "whose operand is itself a mix or scale of textures is not supported"},
+      {"Texture \"h\" \"float\" \"imagemap\" \"string filename\" \"w.pfm\" \"float scale\" 2 \"bool invert\" true\n",
+       "imagemap 'invert' of values above 1 is not supported"},
+      {"Texture \"h\" \"float\" \"imagemap\" \"string filename\" \"w.pfm\" \"float scale\" 3\n"
+       "Texture \"m\" \"spectrum\" \"mix\" \"texture tex1\" \"t\" \"texture amount\" \"h\"\n",
+       "a mix texture's amount must lie in [0, 1]"},
+  };
+  for (const Bad& b : bad)
+    luz_test::expect_load_refused(write("bad.pbrt", scene_text("", base + b.world)), "bad.pbrt", b.problem);
 }
 
 // Shapes other than meshes, delta lights, Attribute defaults, instances.

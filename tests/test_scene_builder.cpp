@@ -2,10 +2,12 @@
 // place it was given; objects placed once flattened, others instanced.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "luz/io/error.h"
 #include "luz/scene/scene_builder.h"
+#include "luz/texture/texture.h"
 
 namespace {
 
@@ -92,6 +94,56 @@ TEST(SceneBuilder, TexturesNeedCoordinatesAndMasksDoNotEmit) {
   }, "a textured emitter on a sphere without texture coordinates");
   expect_refused([](SceneBuilder& b) { b.add_checkerboard(kAt, {0, -1, 0}, {1, 1, 1}, {}); },
                  "checkerboard colours must be finite and not negative");
+}
+
+// Mix and product textures (pbrt's mix and scale) of two checkerboards, one
+// of twice the other's frequency: over the unit square their patterns are
+// independent, each colour on half of it, so the mean of a mix by w is the
+// mix of the means and the mean of a product the product of the means; the
+// bounds are the operands' (mix) and their interval product (product).
+TEST(SceneBuilder, MixAndProductTexturesTheirStatistics) {
+  SceneBuilder b("scene.txt");
+  const luz::Color a0{0.2f, 0.4f, 0.6f}, a1{1.f, 0.f, 0.f}, b0{0.f, 0.f, 0.f}, b1{0.5f, 0.5f, 0.5f};
+  const int32_t ta = b.add_checkerboard(kAt, a0, a1, {});
+  const int32_t tb = b.add_checkerboard(kAt, b0, b1, {2.f, 0.f, 0.f, 0.f, 2.f, 0.f});
+  const luz::Color ma = (a0 + a1) * 0.5f, mb = (b0 + b1) * 0.5f;
+  const int32_t mix = b.add_mix_texture(kAt, {ta, {}}, {tb, {}}, {-1, {0.25f, 0.25f, 0.25f}});
+  const int32_t prod = b.add_product_texture(kAt, {ta, {}}, {tb, {}});
+  const int32_t half = b.add_scaled_texture(kAt, mix, {0.5f, 0.5f, 0.5f});
+  const luz::TextureStats& sm = b.texture_stats(mix);
+  const luz::TextureStats& sp = b.texture_stats(prod);
+  const luz::TextureStats& sh = b.texture_stats(half);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(sm.mean[c], 0.75 * ma[c] + 0.25 * mb[c], 1e-6) << c;
+    EXPECT_NEAR(sp.mean[c], ma[c] * mb[c], 1e-6) << c;
+    EXPECT_NEAR(sh.mean[c], 0.5 * sm.mean[c], 1e-6) << c;
+    EXPECT_EQ(sm.min[c], std::min({a0[c], a1[c], b0[c], b1[c]}));
+    EXPECT_EQ(sm.max[c], std::max({a0[c], a1[c], b0[c], b1[c]}));
+    EXPECT_EQ(sp.min[c], 0.f);  // b0 is black
+    EXPECT_EQ(sp.max[c], std::max(a0[c], a1[c]) * 0.5f);
+  }
+  // The scaled mix evaluates to half the mix everywhere.
+  const luz::Scene& scene = b.scene();
+  luz::TextureView v;
+  v.list = scene.textures.data();
+  v.count = uint32_t(scene.textures.size());
+  for (float u : {0.1f, 0.3f, 0.6f, 0.9f})
+    for (float w : {0.2f, 0.7f}) {
+      const luz::Color m = v.eval(uint32_t(mix), {u, w}), h = v.eval(uint32_t(half), {u, w});
+      for (int c = 0; c < 3; ++c) EXPECT_FLOAT_EQ(h[c], 0.5f * m[c]);
+    }
+
+  expect_refused([](SceneBuilder& b) {
+    const int32_t t = b.add_checkerboard(kAt, {0, 0, 0}, {1, 1, 1}, {});
+    const int32_t m = b.add_mix_texture(kAt, {t, {}}, {-1, {1, 1, 1}}, {-1, {0.5f, 0.5f, 0.5f}});
+    b.add_product_texture(kAt, {m, {}}, {t, {}});
+  }, "a mix or scale texture whose operand is itself a mix or scale of textures is not supported");
+  expect_refused([](SceneBuilder& b) {
+    const int32_t t = b.add_checkerboard(kAt, {0, 0, 0}, {2, 2, 2}, {});
+    b.add_mix_texture(kAt, {-1, {0, 0, 0}}, {-1, {1, 1, 1}}, {t, {}});
+  }, "a mix texture's amount must lie in [0, 1]");
+  expect_refused([](SceneBuilder& b) { b.add_mix_texture(kAt, {5, {}}, {-1, {1, 1, 1}}, {-1, {0.5f, 0.5f, 0.5f}}); },
+                 "a texture operand names no texture");
 }
 
 TEST(SceneBuilder, LightsAndCamera) {

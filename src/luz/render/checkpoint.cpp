@@ -226,9 +226,12 @@ RenderFields render_fields(const Scene& scene, RenderDevice device) {
   });
   materials.values(scene.texture_bindings);
   materials.live(scene.textures, [](void* at, const Texture& t) {
-    Texture* c = t.type == TextureType::Bitmap ? new (at) Texture(t.bitmap) : new (at) Texture(t.checkerboard);
+    Texture* c = t.type == TextureType::Bitmap         ? new (at) Texture(t.bitmap)
+                 : t.type == TextureType::Checkerboard ? new (at) Texture(t.checkerboard)
+                                                       : new (at) Texture(t.mix);
     c->to_uv = t.to_uv;
     c->scale = t.scale;
+    c->offset = t.offset;
     return c;
   });
   materials.array(scene.texels8);

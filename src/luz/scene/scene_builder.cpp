@@ -197,7 +197,7 @@ TextureStats SceneBuilder::bitmap_stats(const Texture& t) const {
   v.srgb_table = scene_.srgb_table.data();
   StatsSum sum;
   const uint32_t n = t.bitmap.width * t.bitmap.height;
-  for (uint32_t k = 0; k < n; ++k) sum.add(t.scale * v.texel(t.bitmap, k));
+  for (uint32_t k = 0; k < n; ++k) sum.add(t.scale * v.texel(t.bitmap, k) + t.offset);
   return sum.done(n);
 }
 
@@ -215,20 +215,28 @@ int32_t SceneBuilder::add_image8(const SourceLoc& at, BitmapTexture bm, const Uv
 }
 
 int32_t SceneBuilder::add_texture(const SourceLoc& at, const Texture& t) {
-  if (!is_finite(t.scale) || !(t.scale.x >= 0.f && t.scale.y >= 0.f && t.scale.z >= 0.f))
-    error(at, "a texture's scale must be finite and not negative");
+  const bool plain = t.scale.x >= 0.f && t.scale.y >= 0.f && t.scale.z >= 0.f && t.offset.x == 0.f &&
+                     t.offset.y == 0.f && t.offset.z == 0.f;
+  if (!is_finite(t.scale) || !is_finite(t.offset)) error(at, "a texture's scale and offset must be finite");
   if (t.type != TextureType::Bitmap) error(at, "add_texture takes bitmaps");
   const BitmapTexture& b = t.bitmap;
   const size_t texels = size_t(b.width) * b.height;
   const size_t stored = b.is_float ? scene_.texelsf.size() / 3 : scene_.texels8.size();
   if (texels == 0 || b.offset > stored || texels > stored - b.offset) error(at, "a texture's texels lie outside the scene's");
+  // A negative scale or an offset (an inverted texture) must keep every value ≥ 0.
+  std::optional<TextureStats> stats;
+  if (!plain) {
+    stats = bitmap_stats(t);
+    if (!(stats->min.x >= 0.f && stats->min.y >= 0.f && stats->min.z >= 0.f))
+      error(at, "a texture's scale and offset make values negative");
+  }
   int32_t index = -1;
   try {
     index = int32_t(scene_.add_texture(t));
   } catch (const std::length_error& e) {
     error(at, e.what());
   }
-  return push_texture_stats(index, std::nullopt);
+  return push_texture_stats(index, stats);
 }
 
 // ---- materials ----
@@ -551,9 +559,88 @@ void SceneBuilder::set_camera(const SourceLoc& at, const Camera& cam, FovAxis ax
 
 int32_t SceneBuilder::add_scaled_texture(const SourceLoc& at, int32_t index, Color k) {
   if (k.x == 1.f && k.y == 1.f && k.z == 1.f) return index;
+  if (!is_finite(k) || !(k.x >= 0.f && k.y >= 0.f && k.z >= 0.f)) error(at, "a texture's scale must be finite and not negative");
   Texture t = scene_.textures[size_t(index)];
   t.scale = t.scale * k;
-  return add_texture(at, t);
+  t.offset = t.offset * k;
+  if (t.type == TextureType::Bitmap) return add_texture(at, t);
+  if (!is_finite(t.scale) || !is_finite(t.offset)) error(at, "a texture's scale must be finite");
+  const TextureStats s = texture_stats(index);
+  int32_t scaled = -1;
+  try {
+    scaled = int32_t(scene_.add_texture(t));
+  } catch (const std::length_error& e) {
+    error(at, e.what());
+  }
+  return push_texture_stats(scaled, TextureStats{s.mean * k, s.min * k, s.max * k});
+}
+
+int32_t SceneBuilder::add_mix_texture(const SourceLoc& at, TextureOperand a, TextureOperand b, TextureOperand amount) {
+  MixTexture m;
+  m.op = MixOp::Lerp;
+  m.a = a.texture, m.ca = a.value, m.b = b.texture, m.cb = b.value;
+  return add_mix(at, m, amount);
+}
+
+int32_t SceneBuilder::add_product_texture(const SourceLoc& at, TextureOperand a, TextureOperand b) {
+  MixTexture m;
+  m.op = MixOp::Product;
+  m.a = a.texture, m.ca = a.value, m.b = b.texture, m.cb = b.value;
+  return add_mix(at, m, {});
+}
+
+int32_t SceneBuilder::add_mix(const SourceLoc& at, MixTexture m, TextureOperand amount) {
+  const bool lerp = m.op == MixOp::Lerp;
+  m.amount = lerp ? amount.texture : -1;
+  m.w = lerp && amount.texture < 0 ? amount.value.x : 0.f;
+  // Each operand's range: a texture's statistics, or the constant.
+  auto range = [&](int32_t t, Color c, const char* what) {
+    if (t < 0) {
+      if (!is_finite(c)) error(at, std::string("a texture ") + what + " is not finite");
+      return TextureStats{c, c, c};
+    }
+    if (size_t(t) >= scene_.textures.size()) error(at, std::string("a texture ") + what + " names no texture");
+    if (scene_.textures[size_t(t)].type == TextureType::Mix)
+      error(at, std::string("a mix or scale texture whose ") + what + " is itself a mix or scale of textures is not supported");
+    return texture_stats(t);
+  };
+  const TextureStats ra = range(m.a, m.ca, "operand"), rb = range(m.b, m.cb, "operand");
+  TextureStats out;
+  if (lerp) {
+    const TextureStats rw = range(m.amount, Color{m.w, m.w, m.w}, "amount");
+    if (!(luminance(rw.min) >= 0.f && luminance(rw.max) <= 1.f)) error(at, "a mix texture's amount must lie in [0, 1]");
+    out.min = vmin(ra.min, rb.min), out.max = vmax(ra.max, rb.max);
+  } else {
+    // Interval products, per channel.
+    for (int k = 0; k < 3; ++k) {
+      const float p[4] = {ra.min[k] * rb.min[k], ra.min[k] * rb.max[k], ra.max[k] * rb.min[k], ra.max[k] * rb.max[k]};
+      out.min[k] = std::min({p[0], p[1], p[2], p[3]});
+      out.max[k] = std::max({p[0], p[1], p[2], p[3]});
+    }
+  }
+  int32_t index = -1;
+  try {
+    index = int32_t(scene_.add_texture(Texture(m)));
+  } catch (const std::length_error& e) {
+    error(at, e.what());
+  }
+  // The mean over the unit square of texture coordinates (a mix has no
+  // texels of its own), at the centres of a 256² grid.
+  TextureView v;
+  v.list = scene_.textures.data();
+  v.texels8 = scene_.texels8.data();
+  v.texelsf = scene_.texelsf.data();
+  v.srgb_table = scene_.srgb_table.data();
+  v.count = uint32_t(scene_.textures.size());
+  constexpr int kGrid = 256;
+  double sum[3] = {0, 0, 0};
+  for (int j = 0; j < kGrid; ++j)
+    for (int i = 0; i < kGrid; ++i) {
+      const Color c = v.eval(uint32_t(index), {(i + 0.5f) / kGrid, (j + 0.5f) / kGrid});
+      for (int k = 0; k < 3; ++k) sum[k] += c[k];
+    }
+  for (int k = 0; k < 3; ++k) out.mean[k] = float(sum[k] / (kGrid * kGrid));
+  return push_texture_stats(index, out);
 }
 
 void SceneBuilder::crop_camera(const SourceLoc& at, long x0, long x1, long y0, long y1) {

@@ -102,6 +102,15 @@ class SceneBuilder {
   // Texture `index` with every value times k (per channel, ≥ 0): a view of
   // the same texels (the texture itself when k is 1).
   int32_t add_scaled_texture(const SourceLoc& at, int32_t index, Color k);
+  // pbrt-v4's mix, (1 - w) a + w b with w amount's luminance in [0, 1], and
+  // scale, a b, of operands that are each a bitmap or checkerboard texture
+  // or a constant (texture -1: `value`); a mix of mixes is refused.
+  struct TextureOperand {
+    int32_t texture = -1;
+    Color value;
+  };
+  int32_t add_mix_texture(const SourceLoc& at, TextureOperand a, TextureOperand b, TextureOperand amount);
+  int32_t add_product_texture(const SourceLoc& at, TextureOperand a, TextureOperand b);
   // (Of textures added as texels or views of them: computed when first asked for.)
   const TextureStats& texture_stats(int32_t texture) const;
 
@@ -163,6 +172,7 @@ class SceneBuilder {
                             bool has_uvs, const char* what) const;
   int32_t push_texture_stats(int32_t index, const std::optional<TextureStats>& stats);
   TextureStats bitmap_stats(const Texture& texture) const;
+  int32_t add_mix(const SourceLoc& at, MixTexture mix, TextureOperand amount);
 
   // An image file as add_image_texture reads it: linear float texels, or
   // 8-bit ones with their statistics read as sRGB.

@@ -52,19 +52,34 @@ struct CheckerboardTexture {
   Color color0{0.4f, 0.4f, 0.4f}, color1{0.2f, 0.2f, 0.2f};
 };
 
-enum class TextureType : uint32_t { Bitmap, Checkerboard };
+// pbrt-v4's `mix` and `scale` of textures: (1 - w) a + w b, or a b, where a,
+// b and w are each a leaf texture (a bitmap or a checkerboard: a, b its
+// colour, w its luminance) or, at index -1, a constant. One level only: the
+// loader refuses a mix of mixes, so evaluation needs no recursion.
+enum class MixOp : uint32_t { Lerp, Product };
+struct MixTexture {
+  int32_t a = -1, b = -1, amount = -1;
+  MixOp op = MixOp::Lerp;
+  float w = 0.5f;
+  Color ca, cb;
+};
+
+enum class TextureType : uint32_t { Bitmap, Checkerboard, Mix };
 
 struct Texture {
   TextureType type = TextureType::Bitmap;
-  UvTransform to_uv;
+  UvTransform to_uv;           // a mix's own is unused: its leaves have theirs
   Color scale{1.f, 1.f, 1.f};  // multiplies every value (glTF's factors times their textures)
+  Color offset{0.f, 0.f, 0.f};  // then added (pbrt's invert, 1 - v: scale -1, offset 1)
   union {
     BitmapTexture bitmap;
     CheckerboardTexture checkerboard;
+    MixTexture mix;
   };
   LUZ_INLINE Texture() : bitmap() {}
   LUZ_INLINE Texture(const BitmapTexture& m) : type(TextureType::Bitmap), bitmap(m) {}
   LUZ_INLINE Texture(const CheckerboardTexture& m) : type(TextureType::Checkerboard), checkerboard(m) {}
+  LUZ_INLINE Texture(const MixTexture& m) : type(TextureType::Mix), mix(m) {}
 };
 
 // R in the low byte, then G, B, A.
@@ -178,15 +193,26 @@ struct TextureView {
     return (c00 * (1.f - fx) + c10 * fx) * (1.f - fy) + (c01 * (1.f - fx) + c11 * fx) * fy;
   }
 
-  // Texture t's linear RGB value at the surface point of texture coordinates uv.
-  LUZ_INLINE Color eval(uint32_t t, Vec2 uv) const {
-    const Texture& tex = list[t];
+  // A bitmap's or checkerboard's linear RGB value at uv.
+  LUZ_INLINE Color leaf(const Texture& tex, Vec2 uv) const {
     const Vec2 st = tex.to_uv.apply(uv);
     if (tex.type == TextureType::Checkerboard) {
       const bool a = st.x - floorf(st.x) > 0.5f, b = st.y - floorf(st.y) > 0.5f;
-      return tex.scale * (a != b ? tex.checkerboard.color0 : tex.checkerboard.color1);
+      return tex.scale * (a != b ? tex.checkerboard.color0 : tex.checkerboard.color1) + tex.offset;
     }
-    return tex.scale * bitmap(tex.bitmap, st);
+    return tex.scale * bitmap(tex.bitmap, st) + tex.offset;
+  }
+
+  // Texture t's linear RGB value at the surface point of texture coordinates uv.
+  LUZ_INLINE Color eval(uint32_t t, Vec2 uv) const {
+    const Texture& tex = list[t];
+    if (__builtin_expect(tex.type != TextureType::Mix, 1)) return leaf(tex, uv);
+    const MixTexture& m = tex.mix;
+    const Color a = m.a < 0 ? m.ca : leaf(list[m.a], uv);
+    const Color b = m.b < 0 ? m.cb : leaf(list[m.b], uv);
+    if (m.op == MixOp::Product) return tex.scale * (a * b) + tex.offset;
+    const float w = m.amount < 0 ? m.w : luminance(leaf(list[m.amount], uv));
+    return tex.scale * (a * (1.f - w) + b * w) + tex.offset;
   }
 
   // The gradient (d/du, d/dv) of texture t's luminance at uv, the bilinear
@@ -194,7 +220,8 @@ struct TextureView {
   // (Mitsuba 3's eval_1_grad; Mitsuba applies the resolution after to_uv's
   // transpose, which differs only for a rotating to_uv on a non-square
   // image). Zero for the nearest filter and the checkerboard (piecewise
-  // constant), as Mitsuba's nearest bitmap.
+  // constant), as Mitsuba's nearest bitmap, and for a mix (the loaders
+  // refuse one as a height map).
   LUZ_INLINE Vec2 eval_1_grad(uint32_t t, Vec2 uv) const {
     const Texture& tex = list[t];
     if (tex.type != TextureType::Bitmap || tex.bitmap.filter == TextureFilter::Nearest) return {};

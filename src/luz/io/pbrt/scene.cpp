@@ -426,7 +426,7 @@ class PbrtScene final : public ParserTarget {
       ps.get_float("maxanisotropy", 8);
       const double scale = ps.get_float("scale", 1);
       if (!(scale >= 0) || !std::isfinite(scale)) error(at, "imagemap 'scale' must be finite and ≥ 0");
-      if (ps.get_bool("invert", false)) error(at, "imagemap 'invert' is not supported");
+      const bool invert_values = ps.get_bool("invert", false);
       const std::string enc = ps.get_string("encoding", "sRGB");
       if (enc == "linear") d.srgb = false;
       else if (enc != "sRGB") error(at, "imagemap encoding '" + enc + "' is not supported (sRGB, linear)");
@@ -434,25 +434,50 @@ class PbrtScene final : public ParserTarget {
       // Luz looks the image up at (s, t) from its top-left; pbrt at (s, 1 - t)
       // with (s, t) = (su u + du, sv v + dv), and Luz's v is 1 - pbrt's.
       d.to_uv = {float(su), 0.f, float(du), 0.f, float(sv), float(1 - sv - dv)};
-      t.index = builder_.add_scaled_texture(at, builder_.add_image_texture(at, d), Color{float(scale), float(scale), float(scale)});
+      int32_t image = builder_.add_image_texture(at, d);
+      if (is_float) {
+        // pbrt-v4's float image textures read the first channel (Luz's
+        // float parameters read a texture's luminance: red alone is that).
+        Texture red = builder_.scene().textures[size_t(image)];
+        red.bitmap.channel = TextureChannel::R;
+        image = builder_.add_texture(at, red);
+      }
+      t.index = builder_.add_scaled_texture(at, image, Color{float(scale), float(scale), float(scale)});
+      if (invert_values) {
+        // pbrt-v4: max(0, 1 - v), v the scaled value; 1 - v where no v exceeds 1.
+        if (max_component(builder_.texture_stats(t.index).max) > 1.f)
+          error(at, "imagemap 'invert' of values above 1 is not supported (pbrt clamps 1 - v at 0; Luz inverts "
+                    "values in [0, 1] only)");
+        Texture inverted = builder_.scene().textures[size_t(t.index)];
+        inverted.scale = inverted.scale * -1.f;
+        inverted.offset = {1.f, 1.f, 1.f};
+        t.index = builder_.add_texture(at, inverted);
+      }
       t.value = builder_.texture_stats(t.index).mean;
     } else if (cls == "checkerboard") {
       if (ps.get_int("dimension", 2) != 2) error(at, "only 2D checkerboards are supported");
       const ColorParam a = color(ps, "tex1", {1, 1, 1}, is_float), b = color(ps, "tex2", {0, 0, 0}, is_float);
-      if (a.texture >= 0 || b.texture >= 0) error(at, "a checkerboard of textures is not supported");
       // pbrt: tex1 where floor(s) + floor(t) is even, squares of 1 in (s, t);
       // Luz's (Mitsuba's): color0 where the halves of a unit period differ.
       // Halving (s, t) makes them agree, with color0 = tex2; v flipped as above.
+      // A checkerboard of textures: their mix by a checkerboard of 0 and 1.
       const UvTransform m{float(su / 2), 0.f, float(du / 2), 0.f, float(-sv / 2), float((sv + dv) / 2)};
-      t.index = builder_.add_checkerboard(at, b.value, a.value, m);
-      t.value = (a.value + b.value) * 0.5f;
+      if (a.texture < 0 && b.texture < 0) {
+        t.index = builder_.add_checkerboard(at, b.value, a.value, m);
+      } else {
+        const int32_t w = builder_.add_checkerboard(at, {0, 0, 0}, {1, 1, 1}, m);
+        t.index = builder_.add_mix_texture(at, {b.texture, b.value}, {a.texture, a.value}, {w, {}});
+      }
+      t.value = builder_.texture_stats(t.index).mean;
     } else if (cls == "constant") {
       t.value = color(ps, "value", {1, 1, 1}, is_float).value;
     } else if (cls == "scale") {
       const ColorParam a = color(ps, "tex", {1, 1, 1}, is_float), s = color(ps, "scale", {1, 1, 1}, true);
-      if (a.texture >= 0 && s.texture >= 0) error(at, "a scale texture of two textures is not supported");
       if (a.texture < 0 && s.texture < 0) {
         t.value = a.value * s.value;
+      } else if (a.texture >= 0 && s.texture >= 0) {
+        t.index = builder_.add_product_texture(at, {a.texture, a.value}, {s.texture, s.value});
+        t.value = builder_.texture_stats(t.index).mean;
       } else {
         // A texture times a constant: a view of its texels with that factor.
         const Color k = a.texture >= 0 ? s.value : a.value;
@@ -463,16 +488,16 @@ class PbrtScene final : public ParserTarget {
     } else if (cls == "mix") {
       const ColorParam a = color(ps, "tex1", {0, 0, 0}, is_float), b = color(ps, "tex2", {1, 1, 1}, is_float);
       const ColorParam w = color(ps, "amount", {0.5f, 0.5f, 0.5f}, true);
-      if (w.texture >= 0) error(at, "a mix texture with a textured amount is not supported");
       const float x = w.value.x;
-      if (x == 0.f || x == 1.f) {
+      if (w.texture < 0 && (x == 0.f || x == 1.f)) {
         const ColorParam& pick = x == 0.f ? a : b;
         t.index = pick.texture;
         t.value = pick.value;
-      } else if (a.texture < 0 && b.texture < 0) {
+      } else if (w.texture < 0 && a.texture < 0 && b.texture < 0) {
         t.value = a.value * (1 - x) + b.value * x;
       } else {
-        error(at, "a mix texture of image textures is not supported (only constants, or an amount of 0 or 1)");
+        t.index = builder_.add_mix_texture(at, {a.texture, a.value}, {b.texture, b.value}, {w.texture, w.value});
+        t.value = builder_.texture_stats(t.index).mean;
       }
     } else {
       error(at, "texture '" + cls + "' is not supported (imagemap, checkerboard, constant, scale, mix)");
@@ -1181,18 +1206,31 @@ class PbrtScene final : public ParserTarget {
       out.index = current_material();
       return out;
     }
-    // Shared by every material: displacement is not rendered; a normal map is.
-    if (ps.has("displacement")) {
-      ps.find("displacement")->used = true;
-      builder_.warn(at, "material displacement (bump mapping) is not supported: ignored");
-    }
+    // Shared by every material: a normal map, or else displacement, pbrt-v4's
+    // bump mapping (BumpMap: the shading point moved along the shading
+    // normal by the float texture's value), which is Luz's bump map of that
+    // texture at scale 1 (SceneView::shading_frame): its gradient taken
+    // exactly where pbrt takes a finite difference, and without pbrt's term
+    // displacement · dn/du, zero on flat faces. A constant displacement has
+    // no gradient: nothing to render.
     const std::string normalmap = ps.get_string("normalmap", "");
+    const ColorParam displacement = color(ps, "displacement", {0, 0, 0}, true);
     if (!normalmap.empty()) {
       ImageTextureDesc nd;
       nd.path = find_file(at, normalmap, "normal map");
       nd.srgb = false;  // pbrt-v4 reads normal maps linearly
       nd.to_uv = {1, 0, 0, 0, 1, 0};
       d.normal_map = builder_.add_image_texture(at, nd);
+      if (displacement.texture >= 0)
+        builder_.warn(at, "displacement is ignored: the material has a normalmap, which pbrt-v4 uses instead");
+    } else if (displacement.texture >= 0) {
+      if (builder_.scene().textures[size_t(displacement.texture)].type == TextureType::Mix) {
+        builder_.warn(at, "displacement by a mix or scale of textures is not rendered (Luz takes the gradient "
+                          "of image textures only)");
+      } else {
+        d.bump_map = displacement.texture;
+        d.bump_scale = 1.f;
+      }
     }
     if (type == "diffuse") {
       d.bsdf = Bsdf::make_diffuse(reflectance(at, ps, "reflectance", {0.5f, 0.5f, 0.5f}, BsdfParam::Reflectance, d), true);
