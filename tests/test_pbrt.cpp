@@ -601,6 +601,47 @@ TEST_F(PbrtScene, MixScaleInvertAndCheckerboardOfTextures) {
     luz_test::expect_load_refused(write("bad.pbrt", scene_text("", base + b.world)), "bad.pbrt", b.problem);
 }
 
+// Textured roughness: a float texture bound to the microfacet alphas, each
+// lookup's value through pbrt-v4's RoughnessToAlpha (sqrt) unless
+// remaproughness is false; u and v apart for the conductor. At the texel
+// centres of a 2×1 image the alphas are the texels' (square roots).
+TEST_F(PbrtScene, TexturedRoughnessIsRemappedAtEachLookup) {
+  luz::write_image((dir / "r.pfm").string(), luz::Image{2, 1, {0.04f, 0.9f, 0.9f, 0.25f, 0.f, 0.f}});
+  const std::string square =
+      "Shape \"trianglemesh\" \"point3 P\" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ] \"point2 uv\" [ 0 0  1 0  1 1  0 1 ]\n"
+      "  \"integer indices\" [ 0 1 2 0 2 3 ]\n";
+  Scene s = load_scene(write(
+      "r.pbrt", scene_text("", quad(2, 3) + "Texture \"r\" \"float\" \"imagemap\" \"string filename\" \"r.pfm\"\n"
+                               "Material \"conductor\" \"texture roughness\" \"r\"\n" + square +
+                               "Material \"conductor\" \"texture uroughness\" \"r\" \"float vroughness\" 0.09\n" + square +
+                               "Material \"dielectric\" \"texture roughness\" \"r\" \"bool remaproughness\" false\n" +
+                               square)));
+  EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
+  std::vector<uint32_t> textured;
+  for (uint32_t m = 0; m < s.materials.size(); ++m)
+    if (s.materials[m].num_bindings > 0) textured.push_back(m);
+  ASSERT_EQ(textured.size(), 3u);
+  const SceneView v = s.view();
+  const double r[2] = {0.04, 0.25};
+  for (int side = 0; side < 2; ++side) {
+    const Vec2 uv{side ? 0.75f : 0.25f, 0.5f};
+    const Bsdf a = v.materials.bsdf(textured[0], v.textures, uv), b = v.materials.bsdf(textured[1], v.textures, uv),
+               c = v.materials.bsdf(textured[2], v.textures, uv);
+    ASSERT_EQ(a.type, BsdfType::RoughConductor);
+    ASSERT_EQ(c.type, BsdfType::RoughDielectric);
+    EXPECT_NEAR(a.rough_conductor.alpha_u, std::sqrt(r[side]), 1e-6) << side;
+    EXPECT_NEAR(a.rough_conductor.alpha_v, std::sqrt(r[side]), 1e-6) << side;
+    EXPECT_NEAR(b.rough_conductor.alpha_u, std::sqrt(r[side]), 1e-6) << side;
+    EXPECT_NEAR(b.rough_conductor.alpha_v, 0.3, 1e-6) << side;
+    EXPECT_NEAR(c.rough_dielectric.alpha_u, r[side], 1e-6) << side;
+    EXPECT_NEAR(c.rough_dielectric.alpha_v, r[side], 1e-6) << side;
+  }
+  luz_test::expect_load_refused(
+      write("bad.pbrt", scene_text("", quad(2, 3) + "Texture \"r\" \"float\" \"imagemap\" \"string filename\" \"r.pfm\"\n"
+                                       "Material \"coateddiffuse\" \"texture roughness\" \"r\"\n" + square)),
+      "bad.pbrt:11", "a textured coateddiffuse roughness is not supported");
+}
+
 // Shapes other than meshes, delta lights, Attribute defaults, instances.
 TEST_F(PbrtScene, ShapesLightsAttributesAndInstances) {
   Scene s = load_scene(write("all.pbrt", scene_text("",

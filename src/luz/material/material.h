@@ -14,12 +14,18 @@ namespace luz {
 // the blend's second, the two-sided back) or the blend weight.
 enum class BsdfPart : uint8_t { Front, Second, Back, BlendWeight };
 
+// What a float parameter takes of its texture's luminance l: l, or sqrt(l)
+// (pbrt-v4's remaproughness: alpha = sqrt(roughness) at each lookup).
+enum class TextureMap : uint8_t { Identity, Sqrt };
+
 // Texture `texture` drives parameter `param` of `part`. A colour parameter
-// takes the texture's RGB value, a float one its luminance (Mitsuba's eval_1).
+// takes the texture's RGB value, a float one its luminance (Mitsuba's eval_1)
+// through `map`.
 struct TextureBinding {
   int32_t texture = 0;
   BsdfPart part = BsdfPart::Front;
   BsdfParam param = BsdfParam::Reflectance;
+  TextureMap map = TextureMap::Identity;
 };
 
 struct Material {
@@ -80,7 +86,10 @@ struct MaterialsView {
     }
     BsdfComponent& c = t.part == BsdfPart::Front ? b : (t.part == BsdfPart::Second ? b.second : b.back);
     if (Color* p = color_param(c, t.param)) *p = v;
-    else if (float* f = float_param(c, t.param)) *f = luminance(v);
+    else if (float* f = float_param(c, t.param)) {
+      const float l = luminance(v);
+      *f = t.map == TextureMap::Sqrt ? sqrtf(max(l, 0.f)) : l;
+    }
   }
 };
 

@@ -1136,18 +1136,34 @@ class PbrtScene final : public ParserTarget {
   // pbrt's roughness: `roughness`, or uroughness / vroughness, remapped to
   // the GGX alpha by sqrt unless remaproughness is false (pbrt-v4's
   // TrowbridgeReitzDistribution::RoughnessToAlpha). Textures are refused.
-  void roughness(const SourceLoc& at, const ParamSet& ps, const std::string& prefix, float& au, float& av) {
-    auto one = [&](const std::string& n, float def) {
-      const Param* p = ps.find(n);
-      if (p && p->type == "texture") error(at, "a textured '" + n + "' is not supported");
-      return float(ps.get_float(n, def));
-    };
-    const float r = one(prefix + "roughness", 0.f);
-    au = one(prefix + "uroughness", r);
-    av = one(prefix + "vroughness", r);
-    if (!(au >= 0.f && av >= 0.f) || !std::isfinite(au) || !std::isfinite(av))
-      error(at, "roughness must be finite and not negative");
-    if (ps.get_bool("remaproughness", true)) au = std::sqrt(au), av = std::sqrt(av);
+  // pbrt's roughness, uroughness and vroughness (under `prefix`) as the
+  // microfacet alphas: constants, or float textures bound to AlphaU / AlphaV
+  // (`textured`: then the constants are their means), through pbrt-v4's
+  // RoughnessToAlpha (sqrt, at each lookup) unless remaproughness is false.
+  struct Roughness {
+    float au = 0.f, av = 0.f;
+    int32_t tu = -1, tv = -1;
+    TextureMap map = TextureMap::Identity;
+    bool textured() const { return tu >= 0 || tv >= 0; }
+    void bind(MaterialDesc& d) const {
+      if (tu >= 0) d.bindings.push_back({tu, BsdfPart::Front, BsdfParam::AlphaU, map});
+      if (tv >= 0) d.bindings.push_back({tv, BsdfPart::Front, BsdfParam::AlphaV, map});
+    }
+  };
+  Roughness roughness(const SourceLoc& at, const ParamSet& ps, const std::string& prefix) {
+    const ColorParam r = color(ps, prefix + "roughness", {0, 0, 0}, true);
+    ColorParam u = color(ps, prefix + "uroughness", {0, 0, 0}, true), v = color(ps, prefix + "vroughness", {0, 0, 0}, true);
+    if (!u.given) u = r;
+    if (!v.given) v = r;
+    for (const ColorParam* c : {&u, &v})
+      if (!(c->value.x >= 0.f) || !std::isfinite(c->value.x)) error(at, "roughness must be finite and not negative");
+    Roughness out;
+    const bool remap = ps.get_bool("remaproughness", true);
+    out.map = remap ? TextureMap::Sqrt : TextureMap::Identity;
+    out.tu = u.texture, out.tv = v.texture;
+    out.au = remap ? std::sqrt(u.value.x) : u.value.x;
+    out.av = remap ? std::sqrt(v.value.x) : v.value.x;
+    return out;
   }
   // pbrt-v4's EffectivelySmooth: alpha below 1e-3 is a perfect specular.
   static bool smooth(float au, float av) { return std::max(au, av) < 1e-3f; }
@@ -1241,8 +1257,7 @@ class PbrtScene final : public ParserTarget {
       const std::string pre = type == "conductor" ? "" : "conductor.";
       Color eta, k;
       conductor_ior(at, ps, pre, eta, k, d);
-      float au, av;
-      roughness(at, ps, pre, au, av);
+      const Roughness rough = roughness(at, ps, pre);
       if (type == "coatedconductor") {
         for (const char* n : {"interface.roughness", "interface.uroughness", "interface.vroughness", "interface.eta",
                               "thickness", "albedo", "g", "maxdepth", "nsamples"})
@@ -1250,19 +1265,24 @@ class PbrtScene final : public ParserTarget {
         builder_.warn(at, "coatedconductor is rendered as its bare conductor (Luz has no coated conductor): the "
                           "coat's reflection and absorption are missing");
       }
-      d.bsdf = smooth(au, av) ? Bsdf::make_smooth_conductor(eta, k, {1, 1, 1}, true)
-                              : Bsdf::make_rough_conductor(MicrofacetType::GGX, au, av, eta, k, {1, 1, 1}, true);
+      if (!rough.textured() && smooth(rough.au, rough.av)) {
+        d.bsdf = Bsdf::make_smooth_conductor(eta, k, {1, 1, 1}, true);
+      } else {
+        d.bsdf = Bsdf::make_rough_conductor(MicrofacetType::GGX, rough.au, rough.av, eta, k, {1, 1, 1}, true);
+        rough.bind(d);
+      }
     } else if (type == "dielectric" || type == "thindielectric") {
       const float eta = eta_param(at, ps, "eta", 1.5f);
       if (type == "thindielectric") {
         d.bsdf = Bsdf::make_thin_dielectric(eta, 1.f);
       } else {
-        float au, av;
-        roughness(at, ps, "", au, av);
-        if (smooth(au, av)) d.bsdf = Bsdf::make_smooth_dielectric(eta, 1.f);
-        else {
+        const Roughness rough = roughness(at, ps, "");
+        if (!rough.textured() && smooth(rough.au, rough.av)) {
+          d.bsdf = Bsdf::make_smooth_dielectric(eta, 1.f);
+        } else {
           if (eta == 1.f) error(at, "a rough dielectric with eta 1 is not supported (nothing would refract)");
-          d.bsdf = Bsdf::make_rough_dielectric(MicrofacetType::GGX, au, av, eta, 1.f);
+          d.bsdf = Bsdf::make_rough_dielectric(MicrofacetType::GGX, rough.au, rough.av, eta, 1.f);
+          rough.bind(d);
         }
       }
     } else if (type == "coateddiffuse") {
@@ -1275,8 +1295,10 @@ class PbrtScene final : public ParserTarget {
       // differ by a few percent at grazing angles for rough ones. The coat's
       // medium (albedo, g, thickness) is not rendered.
       const Color kd = reflectance(at, ps, "reflectance", {0.5f, 0.5f, 0.5f}, BsdfParam::DiffuseReflectance, d);
-      float au, av;
-      roughness(at, ps, "", au, av);
+      const Roughness rough = roughness(at, ps, "");
+      // Rough plastic tabulates its coat's internal reflection per alpha.
+      if (rough.textured()) error(at, "a textured coateddiffuse roughness is not supported");
+      const float au = rough.au, av = rough.av;
       const float eta = eta_param(at, ps, "eta", 1.5f);
       const ColorParam albedo = color(ps, "albedo", {0, 0, 0}, false, false);
       if (max_component(albedo.value) > 0.f) builder_.warn(at, "coateddiffuse 'albedo' (a medium in the coat) is ignored");
