@@ -36,6 +36,7 @@
 #include "luz/io/pbrt/parser.h"
 #include "luz/io/pbrt/tokenizer.h"
 #include "luz/io/read_ahead.h"
+#include "luz/io/spectrum.h"
 #include "luz/math/transform.h"
 #include "luz/scene/scene_builder.h"
 #include "luz/texture/texture.h"
@@ -541,7 +542,7 @@ class PbrtScene final : public ParserTarget {
     const Matrix4& m = gs_.ctm;
     if (name == "point") {
       PointLight l;
-      l.intensity = checked_light(at, color(ps, "I", {1, 1, 1}, false, false), "I") * sc;
+      l.intensity = checked_light(at, color(ps, "I", {1, 1, 1}, false, false, true), "I") * sc;
       l.position = m.point(ps.get_point3("from", {0, 0, 0}));
       builder_.add_light(at, l);
     } else if (name == "spot") {
@@ -550,7 +551,7 @@ class PbrtScene final : public ParserTarget {
       // same angles: the cone and its full-intensity core agree, the ramp
       // between them differs slightly.
       SpotLight l;
-      l.intensity = checked_light(at, color(ps, "I", {1, 1, 1}, false, false), "I") * sc;
+      l.intensity = checked_light(at, color(ps, "I", {1, 1, 1}, false, false, true), "I") * sc;
       const Vec3 from = ps.get_point3("from", {0, 0, 0}), to = ps.get_point3("to", {0, 0, 1});
       const double cone = ps.get_float("coneangle", 30), delta = ps.get_float("conedelta", 5);
       if (!(cone > 0 && cone <= 90)) error(at, "coneangle must be in (0, 90] degrees");
@@ -578,7 +579,7 @@ class PbrtScene final : public ParserTarget {
       builder_.add_light(at, l);
     } else if (name == "distant") {
       DirectionalLight l;
-      l.irradiance = checked_light(at, color(ps, "L", {1, 1, 1}, false, false), "L") * sc;
+      l.irradiance = checked_light(at, color(ps, "L", {1, 1, 1}, false, false, true), "L") * sc;
       const Vec3 from = ps.get_point3("from", {0, 0, 0}), to = ps.get_point3("to", {0, 0, 1});
       const Vec3 d = m.vector(to - from);  // the way the light travels
       if (!(length(d) > 0.f) || !is_finite(d)) error(at, "the distant light's direction is zero or not finite");
@@ -590,7 +591,7 @@ class PbrtScene final : public ParserTarget {
       const std::string file = ps.get_string("filename", "");
       if (file.empty()) {
         ConstantLight c;
-        c.radiance = checked_light(at, color(ps, "L", {1, 1, 1}, false, false), "L") * sc;
+        c.radiance = checked_light(at, color(ps, "L", {1, 1, 1}, false, false, true), "L") * sc;
         builder_.add_light(at, c);
       } else {
         if (ps.has("L")) error(at, "give either 'L' or 'filename', not both");
@@ -687,7 +688,7 @@ class PbrtScene final : public ParserTarget {
     if (ps.get_bool("twosided", false))
       error(at, "two-sided area lights are not supported (Luz's area lights emit on one side)");
     const float sc = float(ps.get_float("scale", 1));
-    gs_.area_L = checked_light(at, color(ps, "L", {1, 1, 1}, false, false), "L") * sc;
+    gs_.area_L = checked_light(at, color(ps, "L", {1, 1, 1}, false, false, true), "L") * sc;
     gs_.area_light = true;
     gs_.area_loc = at;
     done(ps);
@@ -1067,9 +1068,10 @@ class PbrtScene final : public ParserTarget {
   }
 
   // A colour parameter: rgb, a spectrum (a constant one, or a named metal
-  // spectrum), a float (gray), blackbody (refused), or a texture of the
-  // matching kind (`is_float`: a float texture; otherwise a spectrum texture).
-  ColorParam color(const ParamSet& ps, const std::string& name, Color def, bool is_float, bool texture_ok = true) {
+  // spectrum), a float (gray), blackbody (a light's: `light`), or a texture
+  // of the matching kind (`is_float`: a float texture; otherwise a spectrum texture).
+  ColorParam color(const ParamSet& ps, const std::string& name, Color def, bool is_float, bool texture_ok = true,
+                   bool light = false) {
     ColorParam out;
     out.value = def;
     const Param* p = ps.find(name);
@@ -1109,7 +1111,20 @@ class PbrtScene final : public ParserTarget {
         out.value = {float(v[1]), float(v[1]), float(v[1])};
       }
     } else if (p->type == "blackbody") {
-      ParamSet::error(*p, "blackbody spectra are not supported (give rgb)");
+      // pbrt-v4 normalises every light's spectrum to one nit (luminance 1):
+      // a blackbody light is as bright as "rgb L [1 1 1]", in its colour.
+      if (!light) ParamSet::error(*p, "a blackbody spectrum is supported on lights only");
+      if (p->numbers.size() != 1) ParamSet::error(*p, "blackbody takes one temperature in kelvin");
+      try {
+        out.value = blackbody_rgb(p->numbers[0]);
+      } catch (const std::invalid_argument& e) {
+        ParamSet::error(*p, e.what());
+      }
+      if (!(out.value.z >= 0.f)) {
+        builder_.warn(p->loc, "blackbody " + std::to_string(int(p->numbers[0])) +
+                                  " K is redder than sRGB can show: its blue is clamped to 0");
+        out.value.z = 0.f;
+      }
     } else {
       ParamSet::error(*p, "is of type '" + p->type + "', expected 'rgb', 'spectrum' or 'texture'");
     }

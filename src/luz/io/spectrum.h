@@ -1,0 +1,23 @@
+// Spectra that scene files give and Luz, an RGB renderer, turns into linear
+// sRGB colours when loading.
+#pragma once
+
+#include "luz/math/vec.h"
+
+namespace luz {
+
+// CIE 1931 XYZ of a blackbody (Planck's law) at `kelvin`, scaled to Y = 1:
+// the matching functions are Wyman, Sloan and Shirley's multi-lobe fit
+// (JCGT 2013, within the tables' own uncertainty), summed over 360-830 nm
+// in 1 nm steps. Throws std::invalid_argument unless kelvin is finite and
+// positive.
+Vec3 blackbody_xyz(double kelvin);
+
+// That blackbody in linear sRGB (XYZ→sRGB, D65 white): luminance 1, as
+// pbrt-v4's lights emit "blackbody L [T]" (each light's spectrum divided by
+// its photometric integral, so it is as bright as "rgb L [1 1 1]"). Below
+// about 1,900 K blue falls outside sRGB and comes out negative: the caller
+// clamps.
+Color blackbody_rgb(double kelvin);
+
+}  // namespace luz
