@@ -22,7 +22,7 @@ using chi2::D3;
 namespace {
 
 constexpr int kChi2Tests = 3 /* triangles */ + 3 /* spheres from outside */ + 2 /* from inside */ + 1 /* parallelogram */ +
-                           2 /* constant environment */;
+                           2 /* constant environment */ + 2 /* two-sided, from behind */;
 const double kThreshold = chi2::sidak(chi2::kAlpha, kChi2Tests);
 constexpr uint64_t kSamples = 200000;
 // Relative agreement of the code's float pdfs with the double reference: a
@@ -37,10 +37,11 @@ double len(D3 a) { return std::sqrt(chi2::dot(a, a)); }
 double angle_between(D3 a, D3 b) { return std::atan2(len(cross(a, b)), chi2::dot(a, b)); }
 
 // ---------------------------------------------------------------------------
-// Triangle emitters: one-sided, emitting on the side of (p1-p0)×(p2-p0).
+// Triangle emitters: one-sided, emitting on the side of (p1-p0)×(p2-p0), or two-sided.
 struct TriangleRef {
   D3 p0, p1, p2, n;  // n: unit normal
   double area;
+  bool two_sided = false;
   TriangleRef(D3 a, D3 b, D3 c) : p0(a), p1(b), p2(c) {
     D3 x = cross(sub(b, a), sub(c, a));
     area = 0.5 * len(x);
@@ -65,7 +66,7 @@ struct TriangleRef {
   double pdf(D3 o, D3 w) const {
     auto t = hit(o, w);
     if (!t) return 0.0;
-    double cos_l = -chi2::dot(n, w);
+    double cos_l = two_sided ? std::fabs(chi2::dot(n, w)) : -chi2::dot(n, w);
     if (cos_l <= 0.0) return 0.0;  // the back of a one-sided emitter
     return (*t) * (*t) / (cos_l * area);
   }
@@ -121,6 +122,7 @@ struct QuadRef {
   TriangleRef t1, t2;
   D3 n;
   double area;
+  bool two_sided = false;
   QuadRef(D3 p0, D3 e1, D3 e2)
       : t1(p0, add(p0, e1), add(p0, e2)), t2(add(add(p0, e1), e2), add(p0, e2), add(p0, e1)) {
     n = t1.n;
@@ -133,7 +135,7 @@ struct QuadRef {
   double pdf(D3 o, D3 w) const {
     auto t = hit(o, w);
     if (!t) return 0.0;
-    double cos_l = -chi2::dot(n, w);
+    double cos_l = two_sided ? std::fabs(chi2::dot(n, w)) : -chi2::dot(n, w);
     if (cos_l <= 0.0) return 0.0;
     return (*t) * (*t) / (cos_l * area);
   }
@@ -148,7 +150,7 @@ std::unique_ptr<EmitterScene> triangle_scene(const TriangleRef& t) {
   auto s = std::make_unique<EmitterScene>();
   uint32_t m = s->scene.add_material(Bsdf::make_diffuse({.5f, .5f, .5f}));
   Color e{1.f, 2.f, 3.f};
-  s->scene.add_mesh({v3(t.p0), v3(t.p1), v3(t.p2)}, {}, {0, 1, 2}, m, &e);
+  s->scene.add_mesh({v3(t.p0), v3(t.p1), v3(t.p2)}, {}, {0, 1, 2}, m, &e, {}, -1, t.two_sided);
   s->scene.compile();
   s->view = s->scene.view();
   return s;
@@ -478,6 +480,50 @@ TEST(EmitterSampling, ParallelogramChi2) {
   t.compile();
   EXPECT_EQ(t.lights.size(), 2u);
   EXPECT_EQ(t.lights[0].type, LightType::Triangle);
+}
+
+// Two-sided emitters (pbrt-v4's twosided area lights) seen from behind:
+// the densities of the front, with |cos θ_l|. (From behind, a one-sided
+// emitter gives no sample: TriangleChi2's facing() avoids that case.)
+TEST(EmitterSampling, TwoSidedSeenFromBehind) {
+  const D3 ref{0.3, -0.2, 0};
+  const TriangleRef front = facing({-1, -0.5, 2}, {1.2, -0.7, 2.5}, {0.1, 1, 1.8}, ref);
+  TriangleRef back(front.p0, front.p2, front.p1);
+  back.two_sided = true;
+  ASSERT_LT(chi2::dot(back.n, sub(ref, back.p0)), 0.0);
+  auto t = triangle_scene(back);
+  EXPECT_TRUE(t->scene.lights[0].triangle.two_sided);
+  check_emitter(t->view, back, ref, triangle_grid(back, ref), 31, "triangle, two-sided, from behind");
+
+  const D3 p0{-1, -0.5, 2}, e1{1.8, 0.3, 0.4}, e2{0.5, 1.4, -0.2};
+  QuadRef q(p0, e1, e2);
+  if (chi2::dot(q.n, sub(ref, p0)) > 0.0) q = QuadRef(p0, e2, e1);
+  q.two_sided = true;
+  auto s = std::make_unique<EmitterScene>();
+  const uint32_t m = s->scene.add_material(Bsdf::make_diffuse({.5f, .5f, .5f}));
+  const Color e{1.f, 2.f, 3.f};
+  s->scene.add_mesh({v3(q.t1.p0), v3(q.t1.p1), v3(q.t1.p2), v3(q.t2.p0)}, {}, {0, 1, 2, 3, 2, 1}, m, &e, {}, -1, true);
+  s->scene.compile();
+  s->view = s->scene.view();
+  ASSERT_EQ(s->scene.lights.size(), 1u);
+  ASSERT_EQ(s->scene.lights[0].type, LightType::Parallelogram);
+  EXPECT_TRUE(s->scene.lights[0].parallelogram.two_sided);
+  chi2::SphereGrid g;
+  g.quad_split = 8;
+  g.total_mass = 1.0;
+  g.axis = chi2::normalized(sub(add(p0, mul(add(e1, e2), 0.5)), ref));
+  double a = 0.0;
+  for (D3 p : {q.t1.p0, q.t1.p1, q.t1.p2, q.t2.p0}) a = std::max(a, angle_between(g.axis, sub(p, ref)));
+  g.theta_max = a * 1.02;
+  check_emitter(s->view, q, ref, g, 32, "parallelogram, two-sided, from behind");
+
+  // Merged only with a neighbour of the same sidedness.
+  Scene mixed;
+  const uint32_t mm = mixed.add_material(Bsdf::make_diffuse({.5f, .5f, .5f}));
+  mixed.add_mesh({v3(q.t1.p0), v3(q.t1.p1), v3(q.t1.p2)}, {}, {0, 1, 2}, mm, &e, {}, -1, true);
+  mixed.add_mesh({v3(q.t2.p0), v3(q.t2.p1), v3(q.t2.p2)}, {}, {0, 1, 2}, mm, &e);
+  mixed.compile();
+  EXPECT_EQ(mixed.lights.size(), 2u);
 }
 
 // compile() after a change of geometry re-derives the merged light: undone,

@@ -310,9 +310,6 @@ TEST_F(GltfFiles, ModesIndicesTransformsCameraLights) {
   EXPECT_NEAR(s.lights[1].directional.direction.y, 1.f, 1e-6f);
 }
 
-// alphaMode MASK with a constant alpha: opacity 0 below the cutoff, 1 at or
-// above; BLEND: the alpha itself. doubleSided, KHR_materials_ior,
-// emissive strength.
 // Several cameras: the first in traversal order, or one by its camera's or
 // its node's name (luz render --camera); an unknown name lists the file's.
 TEST_F(GltfFiles, CameraByName) {
@@ -344,6 +341,9 @@ TEST_F(GltfFiles, CameraByName) {
             std::string::npos);
 }
 
+// alphaMode MASK with a constant alpha: opacity 0 below the cutoff, 1 at or
+// above; BLEND: the alpha itself. doubleSided (two-sided emission too),
+// KHR_materials_ior, emissive strength.
 TEST_F(GltfFiles, MaterialProperties) {
   const std::string json =
       views() +
@@ -373,6 +373,16 @@ TEST_F(GltfFiles, MaterialProperties) {
   ASSERT_EQ(s.lights[0].type, LightType::Parallelogram);
   EXPECT_EQ(s.lights[0].parallelogram.radiance.x, 4.f);
   EXPECT_EQ(s.lights[0].parallelogram.radiance.y, 2.f);
+  EXPECT_FALSE(s.lights[0].parallelogram.two_sided);
+  {
+    // doubleSided: its "double-sided lighting" emits from the back too.
+    std::string two = json;
+    const std::string emissive = "{\"emissiveFactor\"";
+    two.replace(two.find(emissive), emissive.size(), "{\"doubleSided\":true,\"emissiveFactor\"");
+    const Scene d = load_scene(gltf("two.gltf", quad_bin(), two));
+    ASSERT_EQ(d.lights.size(), 1u);
+    EXPECT_TRUE(d.lights[0].parallelogram.two_sided);
+  }
   // Renders finite with all four (alpha-tested, blended, emitting, transmitting).
   resize(s, 16, 16);
   s.settings.spp = 16;

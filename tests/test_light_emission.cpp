@@ -2,7 +2,7 @@
 //
 //  * Directions: chi-square of the sampled directions against their density
 //    in closed form, in double: cos θ / π about the emitting normal (area
-//    lights, one-sided), 1 / 4π (point, constant), uniform in the spot's
+//    lights, one-sided; |cos θ| / 2π two-sided), 1 / 4π (point, constant), uniform in the spot's
 //    cone as the light defines it (cos θ > cos_cutoff), through the Jacobian
 //    |det B| / |B w|³ when to_world scales unevenly (B its inverse); the
 //    envmap's over its cells, whose probabilities come from pdf_le: its
@@ -43,7 +43,7 @@ using chi2::D3;
 
 namespace {
 
-constexpr int kChi2Tests = 12 /* directions */ + 6 /* positions */;
+constexpr int kChi2Tests = 14 /* directions */ + 6 /* positions */;
 const double kThreshold = chi2::sidak(chi2::kAlpha, kChi2Tests);
 constexpr uint64_t kSamples = 200000;
 const Vec3 kCenter{0.3f, -0.4f, 0.2f};
@@ -61,8 +61,9 @@ bool valid(const LightLeSample& s) { return s.pdf_pos > 0.f && s.pdf_dir > 0.f; 
 // ------------------------------------------------------------------ lights
 const Color kRadiance{1.f, 2.f, 3.f};
 
-TriangleLight triangle() {
+TriangleLight triangle(bool two_sided = false) {
   TriangleLight l;
+  l.two_sided = two_sided;
   l.radiance = kRadiance;
   l.v0 = {0.2f, 0.1f, -0.3f};
   l.v1 = {1.5f, 0.4f, 0.2f};
@@ -72,8 +73,9 @@ TriangleLight triangle() {
   l.normal = normalize(c);
   return l;
 }
-ParallelogramLight parallelogram() {
+ParallelogramLight parallelogram(bool two_sided = false) {
   ParallelogramLight l;
+  l.two_sided = two_sided;
   l.radiance = kRadiance;
   l.corner = {-0.5f, 0.3f, 0.1f};
   l.e1 = {1.2f, 0.1f, -0.2f};
@@ -182,6 +184,11 @@ TEST(LightEmission, AreaDirectionsChi2) {
   const D3 np = chi2::to_d3(p.normal);
   check_directions("parallelogram", p, nullptr, grid(np, M_PI / 2), 2, direction,
                    [&](D3 w) { return std::max(0.0, chi2::dot(w, np)) / M_PI; });
+  // Two-sided: either hemisphere, |cos θ| / 2π.
+  check_directions("triangle, two-sided", triangle(true), nullptr, grid(nt), 21, direction,
+                   [&](D3 w) { return std::fabs(chi2::dot(w, nt)) / (2 * M_PI); });
+  check_directions("parallelogram, two-sided", parallelogram(true), nullptr, grid(np), 22, direction,
+                   [&](D3 w) { return std::fabs(chi2::dot(w, np)) / (2 * M_PI); });
   check_directions("sphere", sphere(false), nullptr, grid({0, 0, 1}, M_PI / 2), 3, about_normal, cosine);
   check_directions("sphere, flipped", sphere(true), nullptr, grid({0, 0, 1}, M_PI / 2), 4, about_normal, cosine);
 }
@@ -370,6 +377,8 @@ std::vector<Case> cases(const EnvScene& env) {
   };
   add("triangle", triangle());
   add("parallelogram", parallelogram());
+  add("triangle, two-sided", triangle(true));
+  add("parallelogram, two-sided", parallelogram(true));
   add("sphere", sphere(false));
   add("sphere, flipped", sphere(true));
   add("point", point());

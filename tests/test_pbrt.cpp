@@ -371,6 +371,15 @@ TEST_F(PbrtScene, AreaLightsEmitOnPbrtsSide) {
                   " \"integer indices\" [ 0 2 1 ] \"normal N\" [ 0 0 1 0 0 1 0 0 1 ]\n"));
   EXPECT_FALSE(lit("AreaLightSource \"diffuse\"\nShape \"trianglemesh\" \"point3 P\" [ -1 -1 0 1 -1 0 1 1 0 ]"
                    " \"integer indices\" [ 0 1 2 ] \"normal N\" [ 0 0 -1 0 0 -1 0 0 -1 ]\n"));
+  // twosided: both sides, whatever the winding (test_lights.cpp checks its light).
+  EXPECT_TRUE(lit("AreaLightSource \"diffuse\" \"bool twosided\" true\nShape \"trianglemesh\" \"point3 P\" "
+                  "[ -1 -1 0 1 -1 0 1 1 0 ] \"integer indices\" [ 0 2 1 ]\n"));
+  // A two-sided sphere emits outward, with a warning.
+  Scene sp = load_scene(write("sp.pbrt", scene_text("", "AreaLightSource \"diffuse\" \"bool twosided\" true\n"
+                                                         "Shape \"sphere\"\n")));
+  ASSERT_EQ(sp.warnings.size(), 1u);
+  EXPECT_NE(sp.warnings[0].find("sp.pbrt:7: warning: a two-sided sphere light emits outward only"), std::string::npos)
+      << sp.warnings[0];
 }
 
 TEST_F(PbrtScene, CameraFilmSamplerIntegrator) {
@@ -419,7 +428,6 @@ TEST_F(PbrtScene, UnusedParametersWarnAndUnsupportedThingsAreNamed) {
       {"Shape \"sphere\" \"float zmax\" 0.5\n", "partial spheres"},
       {"Material \"hair\"\n", "material 'hair' is not supported"},
       {"LightSource \"goniometric\"\n", "light 'goniometric' is not supported"},
-      {"AreaLightSource \"diffuse\" \"bool twosided\" true\n", "two-sided area lights"},
       {"NamedMaterial \"nothing\"\n", "no material named 'nothing'"},
       {"Texture \"t\" \"spectrum\" \"marble\"\n", "texture 'marble' is not supported"},
       {"Material \"diffuse\" \"texture reflectance\" \"nope\"\n", "no spectrum texture named 'nope'"},

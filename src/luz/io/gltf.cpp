@@ -25,7 +25,8 @@
 //    (factor, texture's R) makes it gltf_pbr.h's thin transmitting sheet
 //    (two-sided whatever doubleSided says; KHR_materials_volume ignored).
 //  - Emission: emissiveFactor × emissiveTexture × KHR_materials_emissive_strength
-//    is the radiance of the primitive's triangles as area lights (front side).
+//    is the radiance of the primitive's triangles as area lights (front side;
+//    both with doubleSided, whose "double-sided lighting" covers emission).
 //  - Alpha: OPAQUE ignores alpha; MASK makes the surface exist where
 //    alpha = baseColorFactor.a × texture.a >= alphaCutoff (Material::alpha_cutoff,
 //    the alpha test of material/opacity.h); BLEND uses alpha as a stochastic
@@ -166,7 +167,7 @@ class GltfLoader {
   // Per glTF material: the Luz material, its emission, and its texture-coordinate set.
   struct MaterialInfo {
     uint32_t index = 0;
-    bool emissive = false;
+    bool emissive = false, emission_two_sided = false;
     Color emission;
     int32_t emission_texture = -1;
     int uv_set = -1;  // -1: no texture
@@ -441,7 +442,7 @@ class GltfLoader {
       if (mat.emission_texture >= 0) {
         add_textured_emitter(p.at, std::move(p.mesh), mat);
       } else {
-        const AreaEmission e{mat.emission, -1};
+        const AreaEmission e{mat.emission, -1, mat.emission_two_sided};
         builder_.add_mesh(p.at, std::move(p.mesh), mat.index, mat.emissive ? &e : nullptr);
       }
     }
@@ -546,7 +547,7 @@ class GltfLoader {
       footprint(tex, mesh.uvs[tris[3 * t]], mesh.uvs[tris[3 * t + 1]], mesh.uvs[tris[3 * t + 2]], radiance[t], maxima[t]);
     });
     for (size_t k = 0; k < tris.size(); k += 3) {
-      const AreaEmission e{radiance[k / 3], mat.emission_texture};
+      const AreaEmission e{radiance[k / 3], mat.emission_texture, mat.emission_two_sided};
       const float max = maxima[k / 3];
       const uint32_t v[3] = {tris[k], tris[k + 1], tris[k + 2]};
       if (!(max > 0.f)) {
@@ -819,6 +820,7 @@ class GltfLoader {
     if (!is_black(emission)) {
       info.emissive = true;
       info.emission = emission;
+      info.emission_two_sided = m.doubleSided;
       if (m.emissiveTexture.index >= 0) {
         info.emission_texture = texture(m.emissiveTexture, TextureChannel::Rgb, true, emission,
                                         where + ".emissiveTexture", info.uv_set, &info.emission);

@@ -9,7 +9,7 @@ namespace luz {
 
 void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
                      uint32_t material, const Color* emission, const std::vector<Vec2>& uv,
-                     int32_t emission_texture) {
+                     int32_t emission_texture, bool two_sided) {
   uint32_t base = uint32_t(positions.size());
   if (!uv.empty() && uv.size() != pos.size()) throw std::invalid_argument("add_mesh: one texture coordinate per position");
   if (!objects.empty() && emission) throw std::invalid_argument("add_mesh: an object's triangles cannot emit");
@@ -46,6 +46,7 @@ void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm,
       l.prim = uint32_t(tri_material.size() - 1);
       l.radiance = *emission;
       l.texture = emission_texture;
+      l.two_sided = two_sided;
       tri_emitter.push_back(int32_t(lights.size()));
       lights.push_back(l);
     } else {
@@ -242,6 +243,7 @@ void Scene::merge_parallelogram_emitters() {
       TriangleLight tri;
       tri.prim = t;
       tri.radiance = l.parallelogram.radiance;
+      tri.two_sided = l.parallelogram.two_sided;
       split.push_back(tri);
     }
   }
@@ -257,14 +259,15 @@ void Scene::merge_parallelogram_emitters() {
       const TriangleLight &ta = a.triangle, &tb = split[k + 1].triangle;
       Vec3 pa[3], pb[3];
       ParallelogramLight q;
-      if (ta.texture < 0 && tb.texture < 0 && ta.radiance.x == tb.radiance.x && ta.radiance.y == tb.radiance.y &&
-          ta.radiance.z == tb.radiance.z) {
+      if (ta.texture < 0 && tb.texture < 0 && ta.two_sided == tb.two_sided && ta.radiance.x == tb.radiance.x &&
+          ta.radiance.y == tb.radiance.y && ta.radiance.z == tb.radiance.z) {
         v.triangle(ta.prim, pa[0], pa[1], pa[2]);
         v.triangle(tb.prim, pb[0], pb[1], pb[2]);
         if (parallelogram(pa, pb, q)) {
           q.prim = ta.prim;
           q.prim2 = tb.prim;
           q.radiance = ta.radiance;
+          q.two_sided = ta.two_sided;
           remap[++k] = int32_t(merged.size());
           merged.push_back(q);
           continue;

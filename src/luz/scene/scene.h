@@ -88,11 +88,12 @@ struct Scene {
   // Appends a triangle mesh (positions already in world space). normals may be
   // empty, and so may uv (texture coordinates). With `emission`, every
   // triangle is an area light of that radiance, or, with emission_texture
-  // >= 0 (and uv), of that texture's (emission holding its mean). Once an
-  // object is begun, meshes (without emission) go into the last object.
+  // >= 0 (and uv), of that texture's (emission holding its mean), on both
+  // sides with `two_sided`. Once an object is begun, meshes (without
+  // emission) go into the last object.
   void add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
                 uint32_t material, const Color* emission, const std::vector<Vec2>& uv = {},
-                int32_t emission_texture = -1);
+                int32_t emission_texture = -1, bool two_sided = false);
   void add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip);
   // A new object, empty; the meshes added next (add_mesh, in object space)
   // are its. Returns its index.

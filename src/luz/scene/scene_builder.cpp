@@ -368,13 +368,14 @@ void SceneBuilder::add_mesh(const SourceLoc& at, TriangleMesh mesh, uint32_t mat
     for (Vec3& n : mesh.normals) n = -n;
   }
   scene_.add_mesh(mesh.positions, mesh.normals, mesh.indices, material, emission ? &emission->radiance : nullptr,
-                  mesh.uvs, emission ? emission->texture : -1);
+                  mesh.uvs, emission ? emission->texture : -1, emission && emission->two_sided);
 }
 
 void SceneBuilder::add_sphere(const SourceLoc& at, Vec3 center, float radius, uint32_t material,
                               const AreaEmission* emission, bool flip_normals) {
   check_shape_material(at, material, emission, false, "a sphere");
   if (emission && emission->texture >= 0) error(at, "a textured emitter on a sphere is not supported");
+  if (emission && emission->two_sided) error(at, "a two-sided emitting sphere is not supported");
   if (!(radius > 0.f) || !std::isfinite(radius)) error(at, "the sphere's radius must be finite and positive");
   if (!is_finite(center) || max_abs(center) + radius > kMaxCoordinate)
     error(at, "the sphere is not finite or reaches beyond 1e18");

@@ -38,6 +38,7 @@ struct TriangleMesh {
 struct AreaEmission {
   Color radiance{1.f, 1.f, 1.f};
   int32_t texture = -1;
+  bool two_sided = false;  // on both sides of a mesh (pbrt's twosided; spheres refuse it)
 };
 
 // A material as the readers describe it (see material/material.h).

@@ -175,6 +175,7 @@ struct GraphicsState {
   std::string material_name;
   bool area_light = false;
   Color area_L{};
+  bool area_two_sided = false;
   SourceLoc area_loc;
   std::map<std::string, ParamSet> attributes;  // "shape", "light", "material", "texture"
   bool transform_start = true, transform_end = true;  // ActiveTransform
@@ -685,8 +686,7 @@ class PbrtScene final : public ParserTarget {
     if (name != "diffuse") error(at, "area light '" + name + "' is not supported (diffuse)");
     if (ps.has("power")) error(at, "area light 'power' is not supported (give L and 'scale')");
     if (ps.has("filename")) error(at, "an image on an area light is not supported");
-    if (ps.get_bool("twosided", false))
-      error(at, "two-sided area lights are not supported (Luz's area lights emit on one side)");
+    gs_.area_two_sided = ps.get_bool("twosided", false);
     const float sc = float(ps.get_float("scale", 1));
     gs_.area_L = checked_light(at, color(ps, "L", {1, 1, 1}, false, false, true), "L") * sc;
     gs_.area_light = true;
@@ -767,6 +767,7 @@ class PbrtScene final : public ParserTarget {
     }
     AreaEmission e;
     e.radiance = gs_.area_L;
+    e.two_sided = gs_.area_two_sided;
     builder_.add_mesh(at, std::move(mesh), mat, gs_.area_light ? &e : nullptr);
   }
 
@@ -807,6 +808,9 @@ class PbrtScene final : public ParserTarget {
     done(ps);
     AreaEmission e;
     e.radiance = gs_.area_L;
+    // A closed sphere seen from outside shows only its outer side.
+    if (gs_.area_light && gs_.area_two_sided)
+      builder_.warn(at, "a two-sided sphere light emits outward only (Luz's sphere lights are one-sided)");
     builder_.add_sphere(at, m.point({0, 0, 0}), float(r) * sx, mat, gs_.area_light ? &e : nullptr,
                         gs_.reverse_orientation != (m.det3() < 0));
   }
