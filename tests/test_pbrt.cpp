@@ -650,6 +650,38 @@ TEST_F(PbrtScene, TexturedRoughnessIsRemappedAtEachLookup) {
       "bad.pbrt:11", "a textured coateddiffuse roughness is not supported");
 }
 
+// pbrt-v4's photometric targets: a point light's `power` spread over 4π, a
+// spotlight's over its cone (2π((1 - cos start) + (cos start - cos end) / 2),
+// pbrt's smoothstep falloff integrated), a distant light's and a uniform
+// infinite light's `illuminance` on an upward patch (E, and π L); the RGB
+// and `scale` multiply as in pbrt-v4.
+TEST_F(PbrtScene, PowerAndIlluminanceTargets) {
+  Scene s = load_scene(write("p.pbrt", scene_text("", quad(-1, 1) +
+      "LightSource \"point\" \"rgb I\" [ 0.5 1 2 ] \"float power\" 100 \"float scale\" 2\n"
+      "LightSource \"spot\" \"float power\" 60 \"float coneangle\" 40 \"float conedelta\" 10\n"
+      "LightSource \"distant\" \"rgb L\" [ 1 0.5 0.25 ] \"float illuminance\" 8\n"
+      "LightSource \"infinite\" \"float illuminance\" 3\n")));
+  EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
+  std::vector<const Light*> by_type(8, nullptr);
+  for (const Light& l : s.lights) by_type[size_t(l.type)] = &l;
+  ASSERT_TRUE(by_type[size_t(LightType::Point)] && by_type[size_t(LightType::Spot)] &&
+              by_type[size_t(LightType::Directional)] && by_type[size_t(LightType::Constant)]);
+  const double point = 2 * 100 / (4 * M_PI);
+  const Color pi = by_type[size_t(LightType::Point)]->point.intensity;
+  EXPECT_NEAR(pi.x, 0.5 * point, 1e-5 * point);
+  EXPECT_NEAR(pi.z, 2 * point, 1e-5 * point);
+  const double cs = std::cos(30 * M_PI / 180), ce = std::cos(40 * M_PI / 180);
+  const double spot = 60 / (2 * M_PI * ((1 - cs) + (cs - ce) / 2));
+  EXPECT_NEAR(by_type[size_t(LightType::Spot)]->spot.intensity.y, spot, 1e-5 * spot);
+  const Color e = by_type[size_t(LightType::Directional)]->directional.irradiance;
+  EXPECT_NEAR(e.x, 8, 1e-5);
+  EXPECT_NEAR(e.z, 2, 1e-5);
+  EXPECT_NEAR(by_type[size_t(LightType::Constant)]->constant.radiance.y, 3 / M_PI, 1e-6);
+  luz_test::expect_load_refused(write("bad.pbrt", scene_text("", quad(-1, 1) +
+      "AreaLightSource \"diffuse\" \"float power\" 10\n")),
+      "bad.pbrt", "area light 'power' is not supported");
+}
+
 // Shapes other than meshes, delta lights, Attribute defaults, instances.
 TEST_F(PbrtScene, ShapesLightsAttributesAndInstances) {
   Scene s = load_scene(write("all.pbrt", scene_text("",

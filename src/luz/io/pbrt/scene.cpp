@@ -537,10 +537,39 @@ class PbrtScene final : public ParserTarget {
   void light_source(const SourceLoc& at, const std::string& name, ParamSet raw) override {
     in_world(at, "LightSource");
     ParamSet ps = with_attributes(std::move(raw), "light");
-    if (ps.has("power")) error(at, "light 'power' is not supported (give the radiance or intensity and 'scale')");
-    const float sc = float(ps.get_float("scale", 1));
+    float sc = float(ps.get_float("scale", 1));
     if (!(sc >= 0.f) || !std::isfinite(sc)) error(at, "scale must be finite and not negative");
+    // pbrt-v4's photometric targets: `power` (point, spot) and `illuminance`
+    // (distant, uniform infinite) scale the light by target / k_e, k_e what
+    // the light gives at scale 1 per unit of its (luminance-1) spectrum;
+    // as in pbrt-v4, the RGB's own magnitude still multiplies.
+    auto target = [&](const char* what) {
+      const Param* p = ps.find(what);
+      if (!p) return -1.0;
+      const double v = ps.get_float(what, -1);
+      if (!std::isfinite(v)) error(at, std::string("'") + what + "' must be finite");
+      return v;  // pbrt-v4 ignores a target that is not positive
+    };
     const Matrix4& m = gs_.ctm;
+    if (name == "point" || name == "spot") {
+      if (const double phi = target("power"); phi > 0) {
+        double k_e = 4 * M_PI;
+        if (name == "spot") {
+          const double cone = ps.get_float("coneangle", 30), delta = ps.get_float("conedelta", 5);
+          const double cos_end = std::cos(cone * M_PI / 180), cos_start = std::cos((cone - delta) * M_PI / 180);
+          k_e = 2 * M_PI * ((1 - cos_start) + (cos_start - cos_end) / 2);
+        }
+        sc = float(sc * phi / k_e);
+      }
+    } else if (name == "distant") {
+      if (const double e = target("illuminance"); e > 0) sc = float(sc * e);
+    } else if (name == "infinite" && ps.get_string("filename", "").empty()) {
+      if (const double e = target("illuminance"); e > 0) sc = float(sc * e / M_PI);  // π L on an upward patch
+    } else if (ps.has("power") || ps.has("illuminance")) {
+      error(at, "'power' and 'illuminance' are supported on point, spot, distant and uniform infinite lights (give "
+                "'scale')");
+    }
+    if (!std::isfinite(sc)) error(at, "the light's scale overflows");
     if (name == "point") {
       PointLight l;
       l.intensity = checked_light(at, color(ps, "I", {1, 1, 1}, false, false, true), "I") * sc;
@@ -588,7 +617,6 @@ class PbrtScene final : public ParserTarget {
       builder_.add_light(at, l);
     } else if (name == "infinite") {
       if (ps.has("portal")) error(at, "infinite light portals are not supported");
-      if (ps.has("illuminance")) error(at, "infinite light 'illuminance' is not supported (use 'scale')");
       const std::string file = ps.get_string("filename", "");
       if (file.empty()) {
         ConstantLight c;
