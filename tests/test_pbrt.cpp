@@ -677,9 +677,35 @@ TEST_F(PbrtScene, PowerAndIlluminanceTargets) {
   EXPECT_NEAR(e.x, 8, 1e-5);
   EXPECT_NEAR(e.z, 2, 1e-5);
   EXPECT_NEAR(by_type[size_t(LightType::Constant)]->constant.radiance.y, 3 / M_PI, 1e-6);
-  luz_test::expect_load_refused(write("bad.pbrt", scene_text("", quad(-1, 1) +
-      "AreaLightSource \"diffuse\" \"float power\" 10\n")),
-      "bad.pbrt", "area light 'power' is not supported");
+
+  // Area lights: pbrt-v4 gives each of its shapes the power, radiance
+  // L P / (π A), half that two-sided: each triangle of a trianglemesh on its
+  // own (A in the world), a disk or a sphere whole (A in its own space).
+  Scene a = load_scene(write("a.pbrt", scene_text("",
+      "AttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [ 1 2 3 ] \"float power\" 10\n"
+      "Shape \"trianglemesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0  0 0 1  3 0 1  0 1 1 ] \"integer indices\" [ 0 1 2 3 4 5 ]\n"
+      "AttributeEnd\nAttributeBegin\nAreaLightSource \"diffuse\" \"float power\" 10 \"bool twosided\" true\n"
+      "Translate 0 0 5\nScale 3 3 3\nShape \"disk\" \"float radius\" 2\nAttributeEnd\n"
+      "AttributeBegin\nAreaLightSource \"diffuse\" \"float power\" 10\nTranslate 0 0 9\nScale 2 2 2\n"
+      "Shape \"sphere\" \"float radius\" 0.5\nAttributeEnd\n")));
+  EXPECT_TRUE(a.warnings.empty()) << a.warnings.front();
+  std::vector<float> tri, disk;
+  float sphere = 0;
+  for (const Light& l : a.lights) {
+    if (l.type == LightType::Sphere) sphere = l.sphere.radiance.x;
+    if (l.type != LightType::Triangle) continue;
+    (l.triangle.two_sided ? disk : tri).push_back(l.triangle.radiance.z);
+  }
+  ASSERT_EQ(tri.size(), 2u);
+  std::sort(tri.begin(), tri.end());
+  EXPECT_NEAR(tri[0], 3 * 10 / (M_PI * 1.5), 1e-5);  // the triangle of area 3/2
+  EXPECT_NEAR(tri[1], 3 * 10 / (M_PI * 0.5), 1e-5);  // and of area 1/2
+  ASSERT_GT(disk.size(), 8u);
+  for (float d : disk) EXPECT_NEAR(d, 10 / (2 * M_PI * (M_PI * 4)), 1e-6);  // object-space area 4π, two-sided
+  EXPECT_NEAR(sphere, 10 / (M_PI * (4 * M_PI * 0.25)), 1e-6);
+  luz_test::expect_load_refused(write("bad.pbrt", scene_text("", "AreaLightSource \"diffuse\" \"float power\" 10\n"
+      "Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0 1 0 0 0 1 0 1 1 0 ]\n")),
+      "bad.pbrt", "area light 'power' on a bilinearmesh is not supported");
 }
 
 // Shapes other than meshes, delta lights, Attribute defaults, instances.

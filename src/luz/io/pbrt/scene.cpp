@@ -176,6 +176,7 @@ struct GraphicsState {
   bool area_light = false;
   Color area_L{};
   bool area_two_sided = false;
+  double area_power = -1;  // pbrt-v4's `power` per shape, when positive
   SourceLoc area_loc;
   std::map<std::string, ParamSet> attributes;  // "shape", "light", "material", "texture"
   bool transform_start = true, transform_end = true;  // ActiveTransform
@@ -712,9 +713,10 @@ class PbrtScene final : public ParserTarget {
     in_world(at, "AreaLightSource");
     ParamSet ps = with_attributes(std::move(raw), "light");
     if (name != "diffuse") error(at, "area light '" + name + "' is not supported (diffuse)");
-    if (ps.has("power")) error(at, "area light 'power' is not supported (give L and 'scale')");
     if (ps.has("filename")) error(at, "an image on an area light is not supported");
     gs_.area_two_sided = ps.get_bool("twosided", false);
+    gs_.area_power = ps.get_float("power", -1);
+    if (!std::isfinite(gs_.area_power)) error(at, "area light 'power' must be finite");
     const float sc = float(ps.get_float("scale", 1));
     gs_.area_L = checked_light(at, color(ps, "L", {1, 1, 1}, false, false, true), "L") * sc;
     gs_.area_light = true;
@@ -740,6 +742,7 @@ class PbrtScene final : public ParserTarget {
     if (object_ >= 0 && gs_.area_light) error(at, "area lights inside an object (ObjectBegin) are not supported");
     TriangleMesh mesh;
     bool has_normals = false;
+    double disk_area = 0;
     if (name == "trianglemesh") {
       mesh.positions = ps.get_point3s("P");
       std::vector<int> idx = ps.get_ints("indices");
@@ -775,7 +778,7 @@ class PbrtScene final : public ParserTarget {
     } else if (name == "bilinearmesh") {
       bilinear_mesh(at, ps, mesh);
     } else if (name == "disk") {
-      disk(at, ps, mesh);
+      disk_area = disk(at, ps, mesh);
     } else if (name == "sphere") {
       sphere(at, ps);
       return;
@@ -796,7 +799,42 @@ class PbrtScene final : public ParserTarget {
     AreaEmission e;
     e.radiance = gs_.area_L;
     e.two_sided = gs_.area_two_sided;
+    if (gs_.area_light && gs_.area_power > 0) {
+      if (name == "disk") {
+        e.radiance = e.radiance * powered(disk_area);
+      } else if (name == "trianglemesh") {
+        // pbrt-v4 makes each triangle a light of its own, of that power.
+        for (size_t k = 0; k < mesh.indices.size(); k += 3) {
+          TriangleMesh one;
+          for (int j = 0; j < 3; ++j) {
+            const uint32_t v = mesh.indices[k + size_t(j)];
+            one.positions.push_back(mesh.positions[v]);
+            if (!mesh.normals.empty()) one.normals.push_back(mesh.normals[v]);
+            if (!mesh.uvs.empty()) one.uvs.push_back(mesh.uvs[v]);
+            one.indices.push_back(uint32_t(j));
+          }
+          const Vec3 a = one.positions[0], b = one.positions[1], c = one.positions[2];
+          AreaEmission ek = e;
+          ek.radiance = e.radiance * powered(0.5 * double(length(cross(b - a, c - a))));
+          builder_.add_mesh(at, std::move(one), mat, &ek);
+        }
+        return;
+      } else {
+        error(at, "area light 'power' on a " + name + " is not supported (its pbrt shapes are its quads: give L and "
+                  "'scale')");
+      }
+    }
     builder_.add_mesh(at, std::move(mesh), mat, gs_.area_light ? &e : nullptr);
+  }
+
+  // The factor of an area light of pbrt-v4 `power` over a shape of `area`
+  // (pbrt's Shape::Area: in world space for triangles, in the shape's own
+  // space for disks and spheres): power / (π area, twice that two-sided); 1
+  // without power.
+  float powered(double area) const {
+    if (!(gs_.area_power > 0)) return 1.f;
+    if (!(area > 0)) return 0.f;  // a degenerate triangle emits nothing
+    return float(gs_.area_power / ((gs_.area_two_sided ? 2 : 1) * M_PI * area));
   }
 
   // Transforms the mesh and sets its winding so that the geometric normal is
@@ -835,7 +873,7 @@ class PbrtScene final : public ParserTarget {
     const uint32_t mat = current_material();
     done(ps);
     AreaEmission e;
-    e.radiance = gs_.area_L;
+    e.radiance = gs_.area_L * powered(4 * M_PI * r * r);
     // A closed sphere seen from outside shows only its outer side.
     if (gs_.area_light && gs_.area_two_sided)
       builder_.warn(at, "a two-sided sphere light emits outward only (Luz's sphere lights are one-sided)");
@@ -846,7 +884,8 @@ class PbrtScene final : public ParserTarget {
   // pbrt's disk (z = height, normal +z) as a fan of kDiskSegments triangles
   // per ring: its area is short of the disk's by (2π/n)²/6 ≈ 1e-4 relative.
   static constexpr int kDiskSegments = 256;
-  void disk(const SourceLoc& at, const ParamSet& ps, TriangleMesh& mesh) {
+  // Returns pbrt's area of the disk (in its own space).
+  double disk(const SourceLoc& at, const ParamSet& ps, TriangleMesh& mesh) {
     const float h = float(ps.get_float("height", 0)), r = float(ps.get_float("radius", 1)),
                 ri = float(ps.get_float("innerradius", 0)), phimax = float(ps.get_float("phimax", 360));
     if (!(r > 0.f) || !(ri >= 0.f && ri < r)) error(at, "disk needs radius > innerradius ≥ 0");
@@ -867,6 +906,7 @@ class PbrtScene final : public ParserTarget {
       mesh.indices.insert(mesh.indices.end(), {o0, o1, i1});  // counter-clockwise seen from +z
       if (ri > 0.f) mesh.indices.insert(mesh.indices.end(), {o0, i1, i0});
     }
+    return 0.5 * double(pm) * (double(r) * r - double(ri) * ri);
   }
 
   // pbrt's bilinear patches (vertices p00, p10, p01, p11): a planar patch
