@@ -20,6 +20,7 @@
 #include "luz/io/load.h"
 #include "luz/io/pbrt/parser.h"
 #include "luz/io/pbrt/tokenizer.h"
+#include "luz/scene/scene_info.h"
 #include "scene_helpers.h"
 #include "stat_helpers.h"
 #include "temp_dir.h"
@@ -374,6 +375,11 @@ TEST_F(PbrtScene, AreaLightsEmitOnPbrtsSide) {
   // twosided: both sides, whatever the winding (test_lights.cpp checks its light).
   EXPECT_TRUE(lit("AreaLightSource \"diffuse\" \"bool twosided\" true\nShape \"trianglemesh\" \"point3 P\" "
                   "[ -1 -1 0 1 -1 0 1 1 0 ] \"integer indices\" [ 0 2 1 ]\n"));
+  {
+    const Scene two = load_scene(write("two.pbrt", scene_text("", "AreaLightSource \"diffuse\" \"bool twosided\" true\n"
+                                                                 "Shape \"trianglemesh\" \"point3 P\" [ -1 -1 0 1 -1 0 1 1 0 ]\n")));
+    EXPECT_NE(describe_scene(two).find("lights: 1: 1 area (triangle, two-sided)"), std::string::npos) << describe_scene(two);
+  }
   // A two-sided sphere emits outward, with a warning.
   Scene sp = load_scene(write("sp.pbrt", scene_text("", "AreaLightSource \"diffuse\" \"bool twosided\" true\n"
                                                          "Shape \"sphere\"\n")));

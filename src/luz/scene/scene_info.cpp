@@ -84,7 +84,13 @@ std::string describe_scene(const Scene& s) {
   line("bounds", fmt("(%g, %g, %g)", s.bounds_min.x, s.bounds_min.y, s.bounds_min.z) + " to " +
                      fmt("(%g, %g, %g)", s.bounds_max.x, s.bounds_max.y, s.bounds_max.z));
   std::map<std::string, size_t> lights, materials;
-  for (const Light& l : s.lights) ++lights[light_name(l.type)];
+  for (const Light& l : s.lights) {
+    const bool two_sided = (l.type == LightType::Triangle && l.triangle.two_sided) ||
+                           (l.type == LightType::Parallelogram && l.parallelogram.two_sided);
+    std::string name = light_name(l.type);
+    if (two_sided) name.insert(name.size() - 1, ", two-sided");  // "area (triangle, two-sided)"
+    ++lights[name];
+  }
   for (const Material& m : s.materials) {
     std::string name = bsdf_name(m.bsdf.type);
     if (m.bsdf.blend) name = "blend";
