@@ -39,6 +39,7 @@ struct SmoothPlasticBsdf {
   float fdr_int = 0.f;            // set by make()
   float specular_sampling_weight = 0.5f;
   bool nonlinear = false;
+  uint8_t zero_[3] = {};  // not padding: checkpoints hash a material's bytes (render/checkpoint.cpp)
 
   static SmoothPlasticBsdf make(Color diffuse, Color specular, float int_ior = 1.49f, float ext_ior = 1.000277f,
                                 bool nonlinear = false) {

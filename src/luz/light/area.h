@@ -70,6 +70,7 @@ struct PlanarLight {
   Color radiance;  // for a textured light, the texture's mean (what power and bounds use)
   int32_t texture = -1;  // LightData::textures, or -1: constant radiance
   bool two_sided = false;  // emits on both sides (pbrt-v4's twosided area lights)
+  uint8_t zero_[3] = {};   // not padding: checkpoints hash a light's bytes (render/checkpoint.cpp)
   // Set by Scene::compile, so that sampling does not recompute them at every vertex.
   Vec3 normal;  // unit, the emitting side (one of them, when two-sided)
   float area = 0.f;
@@ -156,6 +157,7 @@ struct SphereLight {
   Vec3 center;
   float radius = 0.f;
   bool flip = false;  // emits inward
+  uint8_t zero_[3] = {};  // not padding: checkpoints hash a light's bytes (render/checkpoint.cpp)
 
   LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const LightData&) const {
     return area_light_sample(sphere_sample(center, radius, flip, ctx.p, u), radiance);

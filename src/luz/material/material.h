@@ -26,6 +26,7 @@ struct TextureBinding {
   BsdfPart part = BsdfPart::Front;
   BsdfParam param = BsdfParam::Reflectance;
   TextureMap map = TextureMap::Identity;
+  uint8_t zero_ = 0;  // not padding: checkpoints hash the bindings' bytes (render/checkpoint.cpp)
 };
 
 struct Material {

@@ -43,6 +43,7 @@ struct BitmapTexture {
   // linear values · 255.
   bool is_float = false;
   bool srgb = true;
+  uint8_t zero_[2] = {};  // not padding: checkpoints hash a texture's bytes (render/checkpoint.cpp)
   TextureChannel channel = TextureChannel::Rgb;
 };
 
