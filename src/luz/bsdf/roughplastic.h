@@ -82,7 +82,7 @@ struct RoughPlasticBsdf {
   bool nonlinear = false;
   uint8_t zero_ = 0;  // not padding: checkpoints hash a material's bytes (render/checkpoint.cpp)
   uint16_t transmittance[kTableSize] = {};  // T(i / 63) · 65535, rounded down
-  uint16_t zero_tail_ = 0;
+  uint16_t zero_tail_ = 0;  // (the same)
 
   // Host only: tabulates T and R_int (~10 ms for GGX, ~40 ms for Beckmann,
   // whose visible-normal sampling inverts a CDF by Newton steps).

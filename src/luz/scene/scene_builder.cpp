@@ -190,11 +190,18 @@ int32_t SceneBuilder::add_checkerboard(const SourceLoc& at, Color color0, Color 
   return push_texture_stats(index, TextureStats{(color0 + color1) * 0.5f, vmin(color0, color1), vmax(color0, color1)});
 }
 
-TextureStats SceneBuilder::bitmap_stats(const Texture& t) const {
+TextureView SceneBuilder::texture_view() const {
   TextureView v;
+  v.list = scene_.textures.data();
   v.texels8 = scene_.texels8.data();
   v.texelsf = scene_.texelsf.data();
   v.srgb_table = scene_.srgb_table.data();
+  v.count = uint32_t(scene_.textures.size());
+  return v;
+}
+
+TextureStats SceneBuilder::bitmap_stats(const Texture& t) const {
+  const TextureView v = texture_view();
   StatsSum sum;
   const uint32_t n = t.bitmap.width * t.bitmap.height;
   for (uint32_t k = 0; k < n; ++k) sum.add(t.scale * v.texel(t.bitmap, k) + t.offset);
@@ -577,21 +584,18 @@ int32_t SceneBuilder::add_scaled_texture(const SourceLoc& at, int32_t index, Col
 }
 
 int32_t SceneBuilder::add_mix_texture(const SourceLoc& at, TextureOperand a, TextureOperand b, TextureOperand amount) {
-  MixTexture m;
-  m.op = MixOp::Lerp;
-  m.a = a.texture, m.ca = a.value, m.b = b.texture, m.cb = b.value;
-  return add_mix(at, m, amount);
+  return add_mix(at, MixOp::Lerp, a, b, amount);
 }
 
 int32_t SceneBuilder::add_product_texture(const SourceLoc& at, TextureOperand a, TextureOperand b) {
-  MixTexture m;
-  m.op = MixOp::Product;
-  m.a = a.texture, m.ca = a.value, m.b = b.texture, m.cb = b.value;
-  return add_mix(at, m, {});
+  return add_mix(at, MixOp::Product, a, b, {});
 }
 
-int32_t SceneBuilder::add_mix(const SourceLoc& at, MixTexture m, TextureOperand amount) {
-  const bool lerp = m.op == MixOp::Lerp;
+int32_t SceneBuilder::add_mix(const SourceLoc& at, MixOp op, TextureOperand a, TextureOperand b, TextureOperand amount) {
+  const bool lerp = op == MixOp::Lerp;
+  MixTexture m;
+  m.op = op;
+  m.a = a.texture, m.ca = a.value, m.b = b.texture, m.cb = b.value;
   m.amount = lerp ? amount.texture : -1;
   m.w = lerp && amount.texture < 0 ? amount.value.x : 0.f;
   // Each operand's range: a texture's statistics, or the constant.
@@ -627,12 +631,7 @@ int32_t SceneBuilder::add_mix(const SourceLoc& at, MixTexture m, TextureOperand 
   }
   // The mean over the unit square of texture coordinates (a mix has no
   // texels of its own), at the centres of a 256² grid.
-  TextureView v;
-  v.list = scene_.textures.data();
-  v.texels8 = scene_.texels8.data();
-  v.texelsf = scene_.texelsf.data();
-  v.srgb_table = scene_.srgb_table.data();
-  v.count = uint32_t(scene_.textures.size());
+  const TextureView v = texture_view();
   constexpr int kGrid = 256;
   double sum[3] = {0, 0, 0};
   for (int j = 0; j < kGrid; ++j)

@@ -173,7 +173,8 @@ class SceneBuilder {
                             bool has_uvs, const char* what) const;
   int32_t push_texture_stats(int32_t index, const std::optional<TextureStats>& stats);
   TextureStats bitmap_stats(const Texture& texture) const;
-  int32_t add_mix(const SourceLoc& at, MixTexture mix, TextureOperand amount);
+  TextureView texture_view() const;  // of the textures added so far
+  int32_t add_mix(const SourceLoc& at, MixOp op, TextureOperand a, TextureOperand b, TextureOperand amount);
 
   // An image file as add_image_texture reads it: linear float texels, or
   // 8-bit ones with their statistics read as sRGB.

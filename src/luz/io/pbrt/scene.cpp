@@ -538,42 +538,23 @@ class PbrtScene final : public ParserTarget {
   void light_source(const SourceLoc& at, const std::string& name, ParamSet raw) override {
     in_world(at, "LightSource");
     ParamSet ps = with_attributes(std::move(raw), "light");
-    float sc = float(ps.get_float("scale", 1));
+    const float sc = float(ps.get_float("scale", 1));
     if (!(sc >= 0.f) || !std::isfinite(sc)) error(at, "scale must be finite and not negative");
-    // pbrt-v4's photometric targets: `power` (point, spot) and `illuminance`
-    // (distant, uniform infinite) scale the light by target / k_e, k_e what
-    // the light gives at scale 1 per unit of its (luminance-1) spectrum;
-    // as in pbrt-v4, the RGB's own magnitude still multiplies.
-    auto target = [&](const char* what) {
-      const Param* p = ps.find(what);
-      if (!p) return -1.0;
-      const double v = ps.get_float(what, -1);
-      if (!std::isfinite(v)) error(at, std::string("'") + what + "' must be finite");
-      return v;  // pbrt-v4 ignores a target that is not positive
+    // `scale`, times pbrt-v4's photometric target where given (`power` or
+    // `illuminance`, ignored when not positive) over k_e, what the light
+    // gives at scale 1 per unit of its (luminance-1) spectrum; as in
+    // pbrt-v4, the RGB's own magnitude still multiplies.
+    auto scale_for = [&](const char* target, double k_e) {
+      const double v = ps.get_float(target, -1);
+      if (!std::isfinite(v)) error(at, std::string("'") + target + "' must be finite");
+      const double f = v > 0 ? sc * v / k_e : sc;
+      if (!std::isfinite(float(f))) error(at, "the light's scale overflows");
+      return float(f);
     };
     const Matrix4& m = gs_.ctm;
-    if (name == "point" || name == "spot") {
-      if (const double phi = target("power"); phi > 0) {
-        double k_e = 4 * M_PI;
-        if (name == "spot") {
-          const double cone = ps.get_float("coneangle", 30), delta = ps.get_float("conedelta", 5);
-          const double cos_end = std::cos(cone * M_PI / 180), cos_start = std::cos((cone - delta) * M_PI / 180);
-          k_e = 2 * M_PI * ((1 - cos_start) + (cos_start - cos_end) / 2);
-        }
-        sc = float(sc * phi / k_e);
-      }
-    } else if (name == "distant") {
-      if (const double e = target("illuminance"); e > 0) sc = float(sc * e);
-    } else if (name == "infinite" && ps.get_string("filename", "").empty()) {
-      if (const double e = target("illuminance"); e > 0) sc = float(sc * e / M_PI);  // π L on an upward patch
-    } else if (ps.has("power") || ps.has("illuminance")) {
-      error(at, "'power' and 'illuminance' are supported on point, spot, distant and uniform infinite lights (give "
-                "'scale')");
-    }
-    if (!std::isfinite(sc)) error(at, "the light's scale overflows");
     if (name == "point") {
       PointLight l;
-      l.intensity = checked_light(at, color(ps, "I", {1, 1, 1}, false, false, true), "I") * sc;
+      l.intensity = light_color(at, ps, "I") * scale_for("power", 4 * M_PI);
       l.position = m.point(ps.get_point3("from", {0, 0, 0}));
       builder_.add_light(at, l);
     } else if (name == "spot") {
@@ -582,11 +563,13 @@ class PbrtScene final : public ParserTarget {
       // same angles: the cone and its full-intensity core agree, the ramp
       // between them differs slightly.
       SpotLight l;
-      l.intensity = checked_light(at, color(ps, "I", {1, 1, 1}, false, false, true), "I") * sc;
       const Vec3 from = ps.get_point3("from", {0, 0, 0}), to = ps.get_point3("to", {0, 0, 1});
       const double cone = ps.get_float("coneangle", 30), delta = ps.get_float("conedelta", 5);
       if (!(cone > 0 && cone <= 90)) error(at, "coneangle must be in (0, 90] degrees");
       if (!(delta >= 0 && delta <= cone)) error(at, "conedelta must be in [0, coneangle]");
+      // pbrt's smoothstep falloff integrated over the sphere.
+      const double cos_end = std::cos(cone * M_PI / 180), cos_start = std::cos((cone - delta) * M_PI / 180);
+      l.intensity = light_color(at, ps, "I") * scale_for("power", 2 * M_PI * ((1 - cos_start) + (cos_start - cos_end) / 2));
       if (!(length(to - from) > 0.f)) error(at, "the spotlight's from and to coincide");
       const Vec3 dir = normalize(to - from);
       const Frame f = Frame::from_normal(dir);
@@ -610,7 +593,7 @@ class PbrtScene final : public ParserTarget {
       builder_.add_light(at, l);
     } else if (name == "distant") {
       DirectionalLight l;
-      l.irradiance = checked_light(at, color(ps, "L", {1, 1, 1}, false, false, true), "L") * sc;
+      l.irradiance = light_color(at, ps, "L") * scale_for("illuminance", 1);
       const Vec3 from = ps.get_point3("from", {0, 0, 0}), to = ps.get_point3("to", {0, 0, 1});
       const Vec3 d = m.vector(to - from);  // the way the light travels
       if (!(length(d) > 0.f) || !is_finite(d)) error(at, "the distant light's direction is zero or not finite");
@@ -621,10 +604,11 @@ class PbrtScene final : public ParserTarget {
       const std::string file = ps.get_string("filename", "");
       if (file.empty()) {
         ConstantLight c;
-        c.radiance = checked_light(at, color(ps, "L", {1, 1, 1}, false, false, true), "L") * sc;
+        c.radiance = light_color(at, ps, "L") * scale_for("illuminance", M_PI);  // π L on an upward patch
         builder_.add_light(at, c);
       } else {
         if (ps.has("L")) error(at, "give either 'L' or 'filename', not both");
+        if (ps.has("illuminance")) error(at, "'illuminance' of an image infinite light is not supported (give 'scale')");
         envmap(at, file, sc);
       }
     } else {
@@ -718,7 +702,7 @@ class PbrtScene final : public ParserTarget {
     gs_.area_power = ps.get_float("power", -1);
     if (!std::isfinite(gs_.area_power)) error(at, "area light 'power' must be finite");
     const float sc = float(ps.get_float("scale", 1));
-    gs_.area_L = checked_light(at, color(ps, "L", {1, 1, 1}, false, false, true), "L") * sc;
+    gs_.area_L = light_color(at, ps, "L") * sc;
     gs_.area_light = true;
     gs_.area_loc = at;
     done(ps);
@@ -1131,8 +1115,9 @@ class PbrtScene final : public ParserTarget {
     return uint32_t(default_material_);
   }
 
-  static Color checked_light(const SourceLoc& at, const ColorParam& c, const char* what) {
-    if (c.texture >= 0) throw InputError(at.file, at.line, std::string("a textured '") + what + "' is not supported");
+  // A light's emission `what` (rgb, a constant spectrum or blackbody; no texture), default 1.
+  Color light_color(const SourceLoc& at, const ParamSet& ps, const char* what) {
+    const ColorParam c = color(ps, what, {1, 1, 1}, false, false, true);
     for (int k = 0; k < 3; ++k)
       if (!(c.value[k] >= 0.f) || !std::isfinite(c.value[k]))
         throw InputError(at.file, at.line, std::string("'") + what + "' must be finite and not negative");
