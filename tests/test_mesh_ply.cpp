@@ -128,6 +128,7 @@ void expect_equal_meshes(const PlyMesh& a, const PlyMesh& b) {
   EXPECT_EQ(bytes(a.uvs), bytes(b.uvs));
   EXPECT_EQ(a.indices, b.indices);
   EXPECT_EQ(a.face_indices, b.face_indices);
+  EXPECT_EQ(a.face_first_triangle, b.face_first_triangle);
 }
 
 PlyMesh read(const std::string& text, const std::string& name = "mem.ply") {
@@ -167,6 +168,7 @@ TEST(Ply, ThreeEncodingsGiveTheValuesWritten) {
   std::vector<uint32_t> tris = {0, 1, 2, 1, 2, 3, 1, 3, 4, 5, 4, 3, 5, 3, 2, 5, 2, 1};
   EXPECT_EQ(asc.indices, tris);
   EXPECT_EQ(asc.face_indices, (std::vector<int32_t>{-3, 5, 5, 127, 127, 127}));
+  EXPECT_EQ(asc.face_first_triangle, (std::vector<uint32_t>{0, 1, 3}));
   expect_equal_meshes(asc, le);
   expect_equal_meshes(asc, be);
 }
@@ -186,6 +188,7 @@ TEST(Ply, NamesAndLayouts) {
   EXPECT_EQ(m.uvs[0].x, 0.25f);
   EXPECT_EQ(m.uvs[0].y, 0.5f);
   EXPECT_EQ(m.indices, (std::vector<uint32_t>{0, 1, 2, 0, 1, 2, 0, 2, 3}));
+  EXPECT_EQ(m.face_first_triangle, (std::vector<uint32_t>{0, 1}));
   EXPECT_TRUE(m.face_indices.empty());
 
   // u/v and texture_s/texture_t; an empty face element.
@@ -212,6 +215,7 @@ TEST(Ply, Bunny) {
   ASSERT_EQ(m.positions.size(), 35947u);
   ASSERT_EQ(m.indices.size(), 3u * 69451u);
   EXPECT_TRUE(m.normals.empty() && m.uvs.empty() && m.face_indices.empty());
+  EXPECT_TRUE(m.face_first_triangle.empty()) << "every face a triangle";
 
   std::ifstream in(path);
   std::string line;

@@ -709,9 +709,108 @@ TEST_F(PbrtScene, PowerAndIlluminanceTargets) {
   ASSERT_GT(disk.size(), 8u);
   for (float d : disk) EXPECT_NEAR(d, 10 / (2 * M_PI * (M_PI * 4)), 1e-6);  // object-space area 4π, two-sided
   EXPECT_NEAR(sphere, 10 / (M_PI * (4 * M_PI * 0.25)), 1e-6);
-  luz_test::expect_load_refused(write("bad.pbrt", scene_text("", "AreaLightSource \"diffuse\" \"float power\" 10\n"
-      "Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0 1 0 0 0 1 0 1 1 0 ]\n")),
-      "bad.pbrt", "area light 'power' on a bilinearmesh is not supported");
+}
+
+// pbrt-v4's shapes under a powered area light: each patch of a bilinearmesh
+// and each face of a plymesh (a triangle, or a quad read as a bilinear
+// patch), with its area in the world; a polygon pbrt-v4 would skip cannot
+// share a power.
+TEST_F(PbrtScene, PowerPerPatchAndPlyFace) {
+  // Under `Scale 2`: a 1 × 2 rectangle (world area 8) and a parallelogram of
+  // base 1 and height 1 (world area 4).
+  Scene b = load_scene(write("b.pbrt", scene_text("",
+      "AreaLightSource \"diffuse\" \"float power\" 10\nScale 2 2 2\n"
+      "Shape \"bilinearmesh\" \"point3 P\" [ 0 0 0  1 0 0  0 2 0  1 2 0   5 0 0  6 0 0  5.5 1 0  6.5 1 0 ]\n"
+      "\"integer indices\" [ 0 1 2 3  4 5 6 7 ]\n")));
+  EXPECT_TRUE(b.warnings.empty()) << b.warnings.front();
+  // The area lights' red radiances, sorted, each value once.
+  auto radiances = [](const Scene& s) {
+    std::vector<float> r;
+    for (const Light& x : s.lights)
+      if (x.type == LightType::Triangle || x.type == LightType::Parallelogram)
+        r.push_back(x.type == LightType::Triangle ? x.triangle.radiance.x : x.parallelogram.radiance.x);
+    std::sort(r.begin(), r.end());
+    r.erase(std::unique(r.begin(), r.end()), r.end());
+    return r;
+  };
+  const std::vector<float> l = radiances(b);
+  ASSERT_EQ(l.size(), 2u);
+  EXPECT_NEAR(l.front(), 10 / (M_PI * 8), 1e-6);
+  EXPECT_NEAR(l.back(), 10 / (M_PI * 4), 1e-6);
+
+  // A PLY of one triangle (area 1/2), one 2 × 1 quad (area 2) and one
+  // 1 × 3 quad (area 3), under `Scale 1 1 2` (z is the quads' height).
+  std::ofstream(dir / "q.ply") << "ply\nformat ascii 1.0\nelement vertex 11\nproperty float x\nproperty float y\n"
+                                  "property float z\nelement face 3\nproperty list uchar int vertex_indices\nend_header\n"
+                                  "0 0 0\n1 0 0\n0 1 0\n"
+                                  "0 0 1\n2 0 1\n2 0 1.5\n0 0 1.5\n"
+                                  "5 0 0\n5 1 0\n5 1 3\n5 0 3\n"
+                                  "3 0 1 2\n4 3 4 5 6\n4 7 8 9 10\n";
+  Scene q = load_scene(write("q.pbrt", scene_text("",
+      "AreaLightSource \"diffuse\" \"float power\" 10\nScale 1 1 2\nShape \"plymesh\" \"string filename\" \"q.ply\"\n")));
+  EXPECT_TRUE(q.warnings.empty()) << q.warnings.front();
+  const std::vector<float> r = radiances(q);
+  ASSERT_EQ(r.size(), 3u);
+  EXPECT_NEAR(r[0], 10 / (M_PI * 6), 1e-6);  // the 1 × 3 quad, twice as tall
+  EXPECT_NEAR(r[1], 10 / (M_PI * 2), 1e-6);  // the 2 × 1 quad: 2 × 0.5 × 2
+  EXPECT_NEAR(r[2], 10 / (M_PI * 0.5), 1e-6);
+
+  std::ofstream(dir / "p.ply") << "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
+                                  "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                                  "0 0 0\n1 0 0\n1 1 0\n0.5 1.5 0\n0 1 0\n5 0 1 2 3 4\n";
+  luz_test::expect_load_refused(
+      write("bad.pbrt", scene_text("", "AreaLightSource \"diffuse\" \"float power\" 10\n"
+                                       "Shape \"plymesh\" \"string filename\" \"p.ply\"\n")),
+      "bad.pbrt:7", "area light 'power' on a plymesh with a face of 5 vertices");
+  // Without a power, the pentagon renders as its three triangles.
+  Scene pent = load_scene(write("pent.pbrt", scene_text("", "AreaLightSource \"diffuse\" \"rgb L\" [ 1 1 1 ]\n"
+                                                           "Shape \"plymesh\" \"string filename\" \"p.ply\"\n")));
+  EXPECT_FALSE(pent.lights.empty());
+}
+
+// An image infinite light's `illuminance`: pbrt-v4 divides it by Σ Y cos θ
+// over the map's upper-hemisphere texels times 2π / N², half the map's true
+// illuminance (a texel spans 4π / N²), so pbrt-v4 and Luz render twice the
+// target. A map of colour c above the horizon and another below: the scale
+// is E / (π/2 Y(c)) (the midpoint sum's error at N = 64 is 1e-3, relative),
+// whatever is below.
+TEST_F(PbrtScene, ImageInfiniteLightIlluminanceAsPbrt) {
+  const int n = 64;
+  Image img;
+  img.width = img.height = n;
+  img.rgb.resize(size_t(n) * n * 3);
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const bool up = std::fabs(2 * (x + 0.5) / n - 1) + std::fabs(2 * (y + 0.5) / n - 1) < 1;
+      const float c[3] = {up ? 1.f : 9.f, up ? 0.5f : 7.f, up ? 0.25f : 5.f};
+      for (int k = 0; k < 3; ++k) img.rgb[(size_t(y) * n + x) * 3 + k] = c[k];
+    }
+  write_image((dir / "env.pfm").string(), img);
+  Scene s = load_scene(write("e.pbrt", scene_text("",
+      "LightSource \"infinite\" \"string filename\" \"env.pfm\" \"float illuminance\" 5 \"float scale\" 3\n" + quad(-1, 1))));
+  const Light* env = nullptr;
+  for (const Light& x : s.lights)
+    if (x.type == LightType::Envmap) env = &x;
+  ASSERT_NE(env, nullptr);
+  const double y_up = 0.2126 * 1 + 0.7152 * 0.5 + 0.0722 * 0.25;
+  const double expected = 3 * 5 / (M_PI / 2 * y_up);
+  EXPECT_NEAR(env->envmap.scale, expected, 2e-3 * expected);
+
+  Image wide;
+  wide.width = 2 * n;
+  wide.height = n;
+  wide.rgb.assign(size_t(2 * n) * n * 3, 1.f);
+  write_image((dir / "wide.pfm").string(), wide);
+  luz_test::expect_load_refused(
+      write("bad.pbrt", scene_text("", "LightSource \"infinite\" \"string filename\" \"wide.pfm\" \"float illuminance\" 5\n")),
+      "bad.pbrt:6", "'illuminance' needs pbrt-v4's square equal-area map");
+  Image black;
+  black.width = black.height = 8;
+  black.rgb.assign(8 * 8 * 3, 0.f);
+  write_image((dir / "black.pfm").string(), black);
+  luz_test::expect_load_refused(
+      write("bad2.pbrt", scene_text("", "LightSource \"infinite\" \"string filename\" \"black.pfm\" \"float illuminance\" 5\n")),
+      "bad2.pbrt:6", "it is black over its upper hemisphere");
 }
 
 // Shapes other than meshes, delta lights, Attribute defaults, instances.

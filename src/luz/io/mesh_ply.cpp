@@ -501,6 +501,7 @@ void read_faces(Source& src, const Header& h, const Element& e, PlyMesh& m) {
   const uint64_t vertices = h.elements[h.vertex].count;
   m.indices.reserve(3 * e.count);  // the header's counts passed check_size
   if (h.face_indices) m.face_indices.reserve(e.count);
+  bool polygons = false;
   for (uint64_t i = 0; i < e.count; ++i) {
     src.begin_entry("face", i);
     int64_t face_index = 0;
@@ -514,6 +515,13 @@ void read_faces(Source& src, const Header& h, const Element& e, PlyMesh& m) {
             src.fail("vertex index " + std::to_string(k) + " is out of range (" + std::to_string(vertices) + " vertices)");
           return (uint32_t)k;
         };
+        if (n > 3 && !polygons) {
+          // The first polygon: every face before it was one triangle.
+          polygons = true;
+          m.face_first_triangle.resize(size_t(i));
+          for (uint32_t f = 0; f < uint32_t(i); ++f) m.face_first_triangle[f] = f;
+        }
+        if (polygons) m.face_first_triangle.push_back(uint32_t(m.indices.size() / 3));
         uint32_t first = index(), prev = index();
         for (int64_t k = 2; k < n; ++k) {
           uint32_t cur = index();

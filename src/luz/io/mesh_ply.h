@@ -20,8 +20,12 @@ struct PlyMesh {
   // Empty, or one per position, as written in the file (no flip): u/v, s/t,
   // texture_u/texture_v or texture_s/texture_t.
   std::vector<Vec2> uvs;
-  // Triangles (vertex_indices or vertex_index); polygons fan-triangulated.
+  // Triangles (vertex_indices or vertex_index); polygons fan-triangulated:
+  // face (v0, v1, ..., vn) gives (v0, v1, v2), (v0, v2, v3), ...
   std::vector<uint32_t> indices;
+  // Empty when every face is a triangle; else each face's first triangle,
+  // one per face (pbrt-v4 makes each face a shape of its own).
+  std::vector<uint32_t> face_first_triangle;
   // pbrt-v4's per-face material index (face property "face_indices"): empty,
   // or one per output triangle.
   std::vector<int32_t> face_indices;

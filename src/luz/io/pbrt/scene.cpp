@@ -19,6 +19,7 @@
 //   (1,1,1) as white (1,1,1) in its sRGB film); named metal spectra take the
 //   RGB of Luz's conductor presets, named glasses their index at 587.6 nm.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -608,8 +609,9 @@ class PbrtScene final : public ParserTarget {
         builder_.add_light(at, c);
       } else {
         if (ps.has("L")) error(at, "give either 'L' or 'filename', not both");
-        if (ps.has("illuminance")) error(at, "'illuminance' of an image infinite light is not supported (give 'scale')");
-        envmap(at, file, sc);
+        const double target = ps.get_float("illuminance", -1);
+        if (!std::isfinite(target)) error(at, "'illuminance' must be finite");
+        envmap(at, file, sc, target);
       }
     } else {
       error(at, "light '" + name + "' is not supported (point, spot, distant, infinite)");
@@ -621,8 +623,9 @@ class PbrtScene final : public ParserTarget {
   // equal-area octahedral mapping (z up in light space); a square image is
   // resampled here to the equirectangular map Luz's envmap reads. A 2:1
   // image (what pbrt-v3 read) is taken as pbrt-v3's latitude-longitude map
-  // (φ = atan2(y, x) across, θ from +z down), with a warning.
-  void envmap(const SourceLoc& at, const std::string& file, float sc) {
+  // (φ = atan2(y, x) across, θ from +z down), with a warning. A positive
+  // `illuminance` scales a square map as pbrt-v4 does (below).
+  void envmap(const SourceLoc& at, const std::string& file, float sc, double illuminance) {
     const std::string path = find_file(at, file, "environment map");
     Image img;
     try {
@@ -631,7 +634,15 @@ class PbrtScene final : public ParserTarget {
       error(at, e.what());
     }
     if (img.width == img.height) {
+      if (illuminance > 0) {
+        const double k_e = pbrt_image_illuminance(img);
+        if (!(k_e > 0)) error(at, "'illuminance' cannot scale environment map '" + file + "': it is black over its upper hemisphere");
+        sc = float(sc * illuminance / k_e);
+        if (!std::isfinite(sc)) error(at, "the light's scale overflows");
+      }
       img = equal_area_to_equirect(img);
+    } else if (illuminance > 0) {
+      error(at, "'illuminance' needs pbrt-v4's square equal-area map; '" + file + "' is not square");
     } else if (img.width == 2 * img.height) {
       builder_.warn(at, "environment map '" + fs::path(path).filename().string() +
                             "' is not square (pbrt-v4's equal-area map): read as pbrt-v3's latitude-longitude map");
@@ -660,6 +671,28 @@ class PbrtScene final : public ParserTarget {
       error(at, "the infinite light's transform is singular");
     builder_.add_envmap(at, l, img, file);
   }
+  // pbrt-v4's illuminance of an equal-area map at scale 1 (ImageInfiniteLight's
+  // Create): Σ Y(texel) cos θ over the texels whose centre is in the upper
+  // hemisphere (+z in light space), times 2π / N². A texel spans 4π / N² sr,
+  // so this is half the true illuminance, and pbrt-v4 renders such a light
+  // at twice the `illuminance` asked for; Luz renders what pbrt-v4 does.
+  // The centre's z in the octahedral map: 1 - r² for r = |2u - 1| + |2v - 1|
+  // below 1.
+  static double pbrt_image_illuminance(const Image& sq) {
+    const int n = sq.width;
+    double sum = 0;
+    for (int y = 0; y < n; ++y) {
+      const double v = std::fabs(2 * (y + 0.5) / n - 1);
+      for (int x = 0; x < n; ++x) {
+        const double r = std::fabs(2 * (x + 0.5) / n - 1) + v;
+        if (r >= 1) continue;
+        const float* t = &sq.rgb[(size_t(y) * n + x) * 3];
+        sum += double(luminance({t[0], t[1], t[2]})) * (1 - r * r);
+      }
+    }
+    return sum * 2 * M_PI / (double(n) * n);
+  }
+
   // Resamples an equal-area octahedral square (N × N) to a latitude-longitude
   // map (2N × N) in pbrt-v3's convention: column i at φ = 2π (i + ½) / W,
   // row j at θ = π j / (H − 1), the grid Luz's envmap looks up; bilinear in
@@ -727,6 +760,10 @@ class PbrtScene final : public ParserTarget {
     TriangleMesh mesh;
     bool has_normals = false;
     double disk_area = 0;
+    // pbrt-v4 gives each of its shapes the power: each triangle, each quad of
+    // a plymesh and each patch of a bilinearmesh; a disk or sphere whole.
+    const bool per_shape = gs_.area_light && gs_.area_power > 0 && object_ < 0;
+    PbrtShapes shapes;
     if (name == "trianglemesh") {
       mesh.positions = ps.get_point3s("P");
       std::vector<int> idx = ps.get_ints("indices");
@@ -759,8 +796,9 @@ class PbrtScene final : public ParserTarget {
       mesh.normals = std::move(ply.normals);
       mesh.uvs = std::move(ply.uvs);
       mesh.indices = std::move(ply.indices);
+      if (per_shape) ply_shapes(at, mesh, ply.face_first_triangle, shapes);
     } else if (name == "bilinearmesh") {
-      bilinear_mesh(at, ps, mesh);
+      bilinear_mesh(at, ps, mesh, per_shape ? &shapes : nullptr);
     } else if (name == "disk") {
       disk_area = disk(at, ps, mesh);
     } else if (name == "sphere") {
@@ -769,6 +807,7 @@ class PbrtScene final : public ParserTarget {
     } else {
       error(at, "shape '" + name + "' is not supported (trianglemesh, plymesh, bilinearmesh, disk, sphere)");
     }
+    if (per_shape && name == "trianglemesh") triangle_shapes(mesh, shapes);
     has_normals = !mesh.normals.empty();
     for (Vec2& uv : mesh.uvs) uv.y = 1.f - uv.y;
     const uint32_t mat = current_material();
@@ -783,30 +822,10 @@ class PbrtScene final : public ParserTarget {
     AreaEmission e;
     e.radiance = gs_.area_L;
     e.two_sided = gs_.area_two_sided;
-    if (gs_.area_light && gs_.area_power > 0) {
-      if (name == "disk") {
-        e.radiance = e.radiance * powered(disk_area);
-      } else if (name == "trianglemesh") {
-        // pbrt-v4 makes each triangle a light of its own, of that power.
-        for (size_t k = 0; k < mesh.indices.size(); k += 3) {
-          TriangleMesh one;
-          for (int j = 0; j < 3; ++j) {
-            const uint32_t v = mesh.indices[k + size_t(j)];
-            one.positions.push_back(mesh.positions[v]);
-            if (!mesh.normals.empty()) one.normals.push_back(mesh.normals[v]);
-            if (!mesh.uvs.empty()) one.uvs.push_back(mesh.uvs[v]);
-            one.indices.push_back(uint32_t(j));
-          }
-          const Vec3 a = one.positions[0], b = one.positions[1], c = one.positions[2];
-          AreaEmission ek = e;
-          ek.radiance = e.radiance * powered(0.5 * double(length(cross(b - a, c - a))));
-          builder_.add_mesh(at, std::move(one), mat, &ek);
-        }
-        return;
-      } else {
-        error(at, "area light 'power' on a " + name + " is not supported (its pbrt shapes are its quads: give L and "
-                  "'scale')");
-      }
+    if (per_shape && name == "disk") e.radiance = e.radiance * powered(disk_area);
+    if (per_shape && name != "disk") {
+      add_powered(at, mesh, mat, e, shapes);
+      return;
     }
     builder_.add_mesh(at, std::move(mesh), mat, gs_.area_light ? &e : nullptr);
   }
@@ -819,6 +838,123 @@ class PbrtScene final : public ParserTarget {
     if (!(gs_.area_power > 0)) return 1.f;
     if (!(area > 0)) return 0.f;  // a degenerate triangle emits nothing
     return float(gs_.area_power / ((gs_.area_two_sided ? 2 : 1) * M_PI * area));
+  }
+
+  // pbrt-v4's shapes of a mesh Luz holds as triangles: shape k is triangles
+  // first[k] to first[k + 1] (the last to the end), of world-space area[k].
+  struct PbrtShapes {
+    std::vector<uint32_t> first;
+    std::vector<double> area;
+  };
+
+  // pbrt-v4's BilinearPatch::Area for corners in the world: a 3×3 Riemann
+  // sum of the sub-patches' diagonal areas (exact for a planar patch; pbrt
+  // takes a rectangle's side lengths, the same up to rounding).
+  static double patch_area(const Vec3 c[4]) {
+    auto at = [&](int i, int j) {
+      const double u = i / 3.0, v = j / 3.0;
+      double p[3];
+      for (int a = 0; a < 3; ++a)
+        p[a] = (1 - u) * ((1 - v) * c[0][a] + v * c[2][a]) + u * ((1 - v) * c[1][a] + v * c[3][a]);
+      return std::array<double, 3>{p[0], p[1], p[2]};
+    };
+    double area = 0;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const auto a = at(i, j), b = at(i + 1, j + 1), c1 = at(i + 1, j), d = at(i, j + 1);
+        const double e[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, f[3] = {c1[0] - d[0], c1[1] - d[1], c1[2] - d[2]};
+        area += half_cross(e, f);
+      }
+    return area;
+  }
+
+  // Half the length of e × f, in double.
+  static double half_cross(const double e[3], const double f[3]) {
+    const double x = e[1] * f[2] - e[2] * f[1], y = e[2] * f[0] - e[0] * f[2], z = e[0] * f[1] - e[1] * f[0];
+    return 0.5 * std::sqrt(x * x + y * y + z * z);
+  }
+
+  static double triangle_area(Vec3 a, Vec3 b, Vec3 c) {
+    const double e[3] = {double(b.x) - a.x, double(b.y) - a.y, double(b.z) - a.z},
+                 f[3] = {double(c.x) - a.x, double(c.y) - a.y, double(c.z) - a.z};
+    return half_cross(e, f);
+  }
+
+  // Each triangle a shape (a trianglemesh, or a plymesh of triangles only);
+  // positions already in the world.
+  static void triangle_shapes(const TriangleMesh& mesh, PbrtShapes& shapes) {
+    const auto& ix = mesh.indices;
+    for (size_t k = 0; k + 2 < ix.size(); k += 3) {
+      shapes.first.push_back(uint32_t(k / 3));
+      shapes.area.push_back(triangle_area(mesh.positions[ix[k]], mesh.positions[ix[k + 1]], mesh.positions[ix[k + 2]]));
+    }
+  }
+
+  // A plymesh's faces as pbrt-v4 reads them: a triangle, or a quad (v0, v1,
+  // v2, v3) as the bilinear patch p00 = v0, p10 = v1, p01 = v3, p11 = v2;
+  // pbrt skips larger faces, so a power cannot be shared over one. Positions
+  // are still in object space here.
+  void ply_shapes(const SourceLoc& at, const TriangleMesh& mesh, const std::vector<uint32_t>& face_first,
+                  PbrtShapes& shapes) const {
+    const Matrix4& m = gs_.ctm;
+    const auto& ix = mesh.indices;
+    const size_t triangles = ix.size() / 3;
+    if (face_first.empty()) {
+      for (size_t t = 0; t < triangles; ++t) {
+        shapes.first.push_back(uint32_t(t));
+        shapes.area.push_back(triangle_area(m.point(mesh.positions[ix[3 * t]]), m.point(mesh.positions[ix[3 * t + 1]]),
+                                            m.point(mesh.positions[ix[3 * t + 2]])));
+      }
+      return;
+    }
+    for (size_t f = 0; f < face_first.size(); ++f) {
+      const size_t t = face_first[f], n = (f + 1 < face_first.size() ? face_first[f + 1] : triangles) - t;
+      shapes.first.push_back(uint32_t(t));
+      if (n == 1) {
+        shapes.area.push_back(triangle_area(m.point(mesh.positions[ix[3 * t]]), m.point(mesh.positions[ix[3 * t + 1]]),
+                                            m.point(mesh.positions[ix[3 * t + 2]])));
+      } else if (n == 2) {
+        const Vec3 c[4] = {m.point(mesh.positions[ix[3 * t]]), m.point(mesh.positions[ix[3 * t + 1]]),
+                           m.point(mesh.positions[ix[3 * t + 5]]), m.point(mesh.positions[ix[3 * t + 2]])};
+        shapes.area.push_back(patch_area(c));
+      } else {
+        error(at, "area light 'power' on a plymesh with a face of " + std::to_string(n + 2) +
+                      " vertices (pbrt-v4 reads triangles and quads only): give L and 'scale'");
+      }
+    }
+  }
+
+  // An area light of pbrt-v4 `power` on each of the mesh's pbrt shapes: the
+  // shapes of equal radiance share one mesh, in the order they first occur.
+  void add_powered(const SourceLoc& at, const TriangleMesh& mesh, uint32_t mat, const AreaEmission& e,
+                   const PbrtShapes& shapes) {
+    std::vector<TriangleMesh> parts;
+    std::vector<float> factor;
+    std::map<float, size_t> part_of;
+    const size_t triangles = mesh.indices.size() / 3;
+    for (size_t k = 0; k < shapes.first.size(); ++k) {
+      const float f = powered(shapes.area[k]);
+      auto [it, added] = part_of.emplace(f, parts.size());
+      if (added) {
+        parts.emplace_back();
+        factor.push_back(f);
+      }
+      TriangleMesh& part = parts[it->second];
+      const size_t end = k + 1 < shapes.first.size() ? shapes.first[k + 1] : triangles;
+      for (size_t t = shapes.first[k]; t < end; ++t)
+        for (int j = 0; j < 3; ++j) {
+          const uint32_t v = mesh.indices[3 * t + size_t(j)];
+          part.indices.push_back(uint32_t(part.positions.size()));
+          part.positions.push_back(mesh.positions[v]);
+          if (!mesh.normals.empty()) part.normals.push_back(mesh.normals[v]);
+          if (!mesh.uvs.empty()) part.uvs.push_back(mesh.uvs[v]);
+        }
+    }
+    for (size_t p = 0; p < parts.size(); ++p) {
+      AreaEmission ep = e;
+      ep.radiance = e.radiance * factor[p];
+      builder_.add_mesh(at, std::move(parts[p]), mat, &ep);
+    }
   }
 
   // Transforms the mesh and sets its winding so that the geometric normal is
@@ -896,7 +1032,9 @@ class PbrtScene final : public ParserTarget {
   // pbrt's bilinear patches (vertices p00, p10, p01, p11): a planar patch
   // is exactly two triangles; a curved one is tessellated in a 16 × 16 grid
   // of its bilinear surface, with a warning.
-  void bilinear_mesh(const SourceLoc& at, const ParamSet& ps, TriangleMesh& mesh) {
+  // Each patch's triangles follow one another; with `shapes`, each patch is
+  // recorded as a pbrt shape (its area in the world).
+  void bilinear_mesh(const SourceLoc& at, const ParamSet& ps, TriangleMesh& mesh, PbrtShapes* shapes) {
     const std::vector<Vec3> P = ps.get_point3s("P");
     std::vector<int> idx = ps.get_ints("indices");
     if (P.empty()) error(at, "bilinearmesh needs \"point3 P\"");
@@ -917,6 +1055,11 @@ class PbrtScene final : public ParserTarget {
       const bool planar = length(nrm) > 0.f && std::fabs(dot(normalize(nrm), p11 - p00)) <= 1e-5f * size;
       const int g = planar ? 1 : 16;
       curved = curved || !planar;
+      if (shapes) {
+        const Vec3 c[4] = {gs_.ctm.point(p00), gs_.ctm.point(p10), gs_.ctm.point(p01), gs_.ctm.point(p11)};
+        shapes->first.push_back(uint32_t(mesh.indices.size() / 3));
+        shapes->area.push_back(patch_area(c));
+      }
       const uint32_t base = uint32_t(mesh.positions.size());
       for (int j = 0; j <= g; ++j)
         for (int i = 0; i <= g; ++i) {
