@@ -6,7 +6,9 @@
 //
 // Each variant (a sampler; LIST is comma-separated from scene, independent,
 // stratified, sobol; `scene` is the one the scene file names; a suffix /rrN
-// sets Russian roulette's first depth, as sobol/rr2) is rendered R
+// sets Russian roulette's first depth, as sobol/rr2; a last suffix /fis
+// applies the pixel filter by filter sampling instead of splatting, as
+// scene/fis) is rendered R
 // times, the variants interleaved round by round so that they share the
 // machine's changing speed (round k renders with seed K + k + 1). For each: render seconds, relMSE against a
 // converged reference, efficiency = 1 / (relMSE × seconds); also the
@@ -351,6 +353,7 @@ int main(int argc, char** argv) {
       std::string name;
       SamplerType sampler;
       int rr_depth;
+      bool fis;  // filter sampling instead of the default splatting
       std::vector<double> seconds, cpu, rel;
     };
     std::vector<Variant> variants;
@@ -358,17 +361,21 @@ int main(int argc, char** argv) {
       const size_t comma = std::min(a.samplers.find(',', at), a.samplers.size());
       const std::string item = a.samplers.substr(at, comma - at);
       at = comma + 1;
-      const size_t slash = item.find("/rr");
-      const std::string v = item.substr(0, slash);
+      std::string base_item = item;
+      const bool fis = base_item.size() > 4 && base_item.compare(base_item.size() - 4, 4, "/fis") == 0;
+      if (fis) base_item.resize(base_item.size() - 4);
+      const size_t slash = base_item.find("/rr");
+      const std::string v = base_item.substr(0, slash);
       int rr = base.settings.integrator.rr_depth;
       SamplerType t = own;
-      if ((v != "scene" && !parse_sampler(v, t)) || (slash != std::string::npos && (rr = std::atoi(&item[slash + 3])) < 1)) {
+      if ((v != "scene" && !parse_sampler(v, t)) || (slash != std::string::npos && (rr = std::atoi(&base_item[slash + 3])) < 1)) {
         std::fprintf(stderr, "efficiency_bench: --samplers: unknown variant '%s'\n", item.c_str());
         return 2;
       }
       std::string name = v == "scene" ? std::string("scene's (") + sampler_name(own) + ")" : v;
       if (slash != std::string::npos) name += ", rr_depth " + std::to_string(rr);
-      variants.push_back({name, t, rr, {}, {}, {}});
+      if (fis) name += ", filter sampling";
+      variants.push_back({name, t, rr, fis, {}, {}, {}});
     }
     for (int round = 0; round < a.rounds; ++round)
       for (Variant& v : variants) {
@@ -379,10 +386,11 @@ int main(int argc, char** argv) {
         s.settings.seed = uint64_t(a.first_round + round) + 1;
         double t = 0;
         const double cpu0 = cpu_seconds();
-        const Film f = render(s, a.threads, t);
+        if (v.fis) s.settings.reconstruction = Reconstruction::FilterSampling;
+        const std::vector<float> img = render(s, a.threads, t).mean();
         v.cpu.push_back(cpu_seconds() - cpu0);
         v.seconds.push_back(t);
-        v.rel.push_back(rel_mse(f, ref.mean, keep) - ref.noise);
+        v.rel.push_back(rel_mse(img, ref.mean, keep) - ref.noise);
       }
     auto mean = [](const std::vector<double>& x) {
       double m = 0;

@@ -11,8 +11,15 @@
 
 #include "luz/film/film.h"
 #include "luz/io/image.h"
+#include "luz/scene/scene.h"
 
 namespace luz_test {
+
+// Block statistics (make_blocks) add pixels' variances, which holds when
+// their noise is independent: filter sampling. Splatting shares samples
+// between neighbouring pixels (film/splat.h); test_render compares it with
+// filter sampling across seeds.
+inline void independent_pixels(luz::Scene& s) { s.settings.reconstruction = luz::Reconstruction::FilterSampling; }
 
 // Two-sided normal threshold z such that m independent tests all pass with
 // probability 1 - alpha (Šidák): P(|Z| > z) = 1 - (1 - alpha)^(1/m).

@@ -352,6 +352,7 @@ TEST_F(Cli, BadFlags) {
   expect_bad({"render", "scene.xml", "--sampler", "bogus"}, "", 0, "--sampler");
   expect_bad({"render", "scene.xml", "--integrator", "bdpt"}, "", 0, "--integrator");
   expect_bad({"render", "scene.xml", "--light-sampler", "uniform"}, "", 0, "--light-sampler");
+  expect_bad({"render", "scene.xml", "--reconstruction", "gather"}, "", 0, "--reconstruction");
   expect_bad({"render", "scene.xml", "--max-depth", "0"}, "", 0, "--max-depth");
   expect_bad({"render", "scene.xml", "--threads", "-1"}, "", 0, "--threads");
   expect_bad({"render", "scene.xml", "--bogus"}, "", 0, "--bogus");
@@ -645,9 +646,10 @@ TEST_F(Cli, FlagsOverrideTheScene) {
       // One sample of 48 pixels: only the path tracer (with light sampling) surely sees light.
       expect_sane(luz::read_pfm((dir / "out.pfm").string()), 8, 6, std::string(integrator) != "bsdf");
     }
-  for (const char* light_sampler : {"bvh", "power"}) {
-    SCOPED_TRACE(light_sampler);
-    Result r = run({"render", "scene.xml", "-o", "out.pfm", "--threads", "1", "--spp", "1", "--light-sampler", light_sampler});
+  for (const auto& [flag, value] : std::vector<std::pair<std::string, std::string>>{
+           {"--light-sampler", "bvh"}, {"--light-sampler", "power"}, {"--reconstruction", "splat"}, {"--reconstruction", "filter"}}) {
+    SCOPED_TRACE(flag + " " + value);
+    Result r = run({"render", "scene.xml", "-o", "out.pfm", "--threads", "1", "--spp", "1", flag, value});
     ASSERT_TRUE(r.exited);
     ASSERT_EQ(r.status, 0) << r.err;
     expect_sane(luz::read_pfm((dir / "out.pfm").string()), 8, 6, true);

@@ -137,6 +137,8 @@ TEST_F(Resume, ChangedSceneOrSettingsAndBadCheckpointsAreRefused) {
   };
   refused({"render", "--resume", "c.ckpt", "--spp", "4096"}, "c.ckpt: error: cannot resume: spp: the checkpoint has 1536, this render 4096");
   refused({"render", "--resume", "c.ckpt", "--seed", "3"}, "cannot resume: seed: the checkpoint has 0, this render 3");
+  refused({"render", "--resume", "c.ckpt", "--reconstruction", "filter"},
+          "cannot resume: reconstruction: the checkpoint has splat, this render filter sampling");
   refused({"render", "--resume", "c.ckpt", "-D", "res=33"}, "cannot resume: image size: the checkpoint has 32x32, this render 33x33");
   refused({"render", "box.xml", "--resume", "c.ckpt"}, "give no scene file with it");
   // The light made brighter in the scene file.

@@ -76,6 +76,9 @@ Scene cornell(int res, uint32_t spp, uint64_t seed) {
   s.settings.sampler = SamplerType::Independent;
   s.settings.spp = spp;
   s.settings.seed = seed;
+  // The CUDA device has filter sampling only; the block tests want
+  // independent pixels too.
+  luz_test::independent_pixels(s);
   return s;
 }
 
@@ -342,6 +345,7 @@ constexpr int kNumMaterialModels = int(sizeof kMaterialModels / sizeof kMaterial
 
 Scene material_scene(const char* model, uint32_t spp, uint64_t seed) {
   Scene s = load_scene(LUZ_SOURCE_DIR "/bench/scenes/material-spheres.xml", {{"material", model}, {"res", "32"}});
+  luz_test::independent_pixels(s);
   s.settings.sampler = SamplerType::Independent;
   s.settings.spp = spp;
   s.settings.seed = seed;

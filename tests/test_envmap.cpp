@@ -210,6 +210,7 @@ class EnvImages : public TempDirTest {
   Film render(const std::string& xml, uint64_t seed) {
     Scene s = load_scene(write("scene.xml", xml));
     s.settings.seed = seed;
+    luz_test::independent_pixels(s);
     return luz_test::render_finite(s);
   }
   // Worst |z| over 4×4 blocks and channels between two independent images;

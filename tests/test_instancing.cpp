@@ -366,7 +366,10 @@ TEST(Instancing, RendersAsTheFlattenedScene) {
   CpuRenderOptions opt;
   opt.threads = 2;
   RenderStats si, sf;
-  const Film a = render_cpu(fx.inst, opt, si), b = render_cpu(fx.flat, opt, sf);
+  Scene inst = fx.inst, flat = fx.flat;
+  luz_test::independent_pixels(inst);
+  luz_test::independent_pixels(flat);
+  const Film a = render_cpu(inst, opt, si), b = render_cpu(flat, opt, sf);
   EXPECT_EQ(si.discarded, 0u);
   EXPECT_EQ(sf.discarded, 0u);
   const luz_test::Blocks ba = luz_test::make_blocks(a, 4), bb = luz_test::make_blocks(b, 4);

@@ -54,6 +54,7 @@ Scene load(const std::string& path, int res, const std::string& integrator = "pa
   // estimate of the variance of the pixel mean (with a low-discrepancy
   // sampler it would only be an upper bound).
   s.settings.sampler = SamplerType::Independent;
+  luz_test::independent_pixels(s);
   return s;
 }
 
@@ -161,6 +162,7 @@ const std::string kSponzaInside = LUZ_SOURCE_DIR "/bench/scenes/sponza-inside.xm
 
 static Scene variant(const std::string& path, SamplerType sampler, int rr_depth, uint64_t seed) {
   Scene s = path == kSponzaInside ? load_scene(path, {{"res", "64"}, {"max_depth", "10"}}) : load(path, 64);
+  luz_test::independent_pixels(s);
   s.settings.sampler = sampler;
   s.settings.integrator.rr_depth = rr_depth;
   s.settings.spp = path == kSponzaInside ? 128 : 256;

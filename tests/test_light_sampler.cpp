@@ -538,6 +538,7 @@ TEST(LightBvh, CollapsedTreeShape) {
 
 // `s` rendered on 2 threads with light sampler t and the given seed.
 Film render_with(Scene s, LightSamplerType t, uint64_t seed) {
+  luz_test::independent_pixels(s);
   s.settings.light_sampler = t;
   s.settings.seed = seed;
   CpuRenderOptions opt;

@@ -26,6 +26,7 @@
 #include "cli_helpers.h"
 #include "luz/accel/embree_tracer.h"
 #include "luz/device/cuda/render_cuda.h"
+#include "luz/film/splat.h"
 #include "luz/integrator/path.h"
 #include "film_helpers.h"
 #include "luz/io/load.h"
@@ -67,7 +68,8 @@ uint64_t film_count(const Film& f) {
 }
 
 TEST(Render, FilmIsTheSamplesAddedInIndexOrder) {
-  const Scene s = box(8, 6);
+  Scene s = box(8, 6);
+  s.settings.reconstruction = Reconstruction::FilterSampling;
   const RenderResult r = run(s, 2);
   EXPECT_TRUE(r.complete);
   EXPECT_EQ(r.stats.spp, 6u);
@@ -91,6 +93,55 @@ TEST(Render, FilmIsTheSamplesAddedInIndexOrder) {
         want.add(x, y, L);
       }
   expect_same_film(r.film, want, "render() against a plain loop");
+}
+
+// Splatting (film/splat.h), as plainly as it can be written: every square
+// of the image and a border of one (the tent's reach) takes samples at the
+// shared offsets; pixel p's k-th sample weighs the k-th samples of the nine
+// squares around it. 5 × 3 tiles of 64 (the last column 8 wide, the last
+// row 8 tall), 34 samples (two chunks of a tile's samples): on 1 thread
+// whole tiles, on 2 and 3 tiles split by samples, and passes of 5 spp.
+TEST(Render, SplattedFilmIsItsDefinition) {
+  Scene s = box(8, 34);
+  s.set_resolution(264, 136);
+  s.settings.integrator.max_depth = 3;
+  ASSERT_EQ(s.settings.filter, FilterKind::Tent);
+  ASSERT_EQ(s.settings.reconstruction, Reconstruction::Splat);
+  const int W = 264, H = 136, r = 1;
+  const uint32_t spp = 34;
+  const SceneView view = s.view();
+  EmbreeScene embree(s);
+  const EmbreeTracer tracer = embree.tracer();
+  const SamplerDesc desc = make_sampler_desc(s.settings.sampler, spp, s.settings.seed);
+  const int SW = W + 2 * r, SH = H + 2 * r;
+  std::vector<Color> L(size_t(SW) * SH * spp);
+  std::vector<Vec2> u(spp);
+  for (uint32_t k = 0; k < spp; ++k) u[k] = splat_offset(desc, k);
+  for (int y = -r; y < H + r; ++y)
+    for (int x = -r; x < W + r; ++x)
+      for (uint32_t k = 0; k < spp; ++k) {
+        Sampler sampler;
+        sampler.start(desc, uint32_t(x), uint32_t(y), k);
+        uint64_t rays = 0;
+        L[(size_t(y + r) * SW + (x + r)) * spp + k] =
+            path_li(view, tracer, camera_sample_at(view.camera, x, y, sampler, u[k]), sampler, s.settings.integrator, rays);
+      }
+  Film want(W, H);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      for (uint32_t k = 0; k < spp; ++k) {
+        Color S{};
+        for (int oy = -r; oy <= r; ++oy)
+          for (int ox = -r; ox <= r; ++ox) {
+            const float w = filter_weight_1d(FilterKind::Tent, float(ox) + u[k].x - 0.5f) *
+                            filter_weight_1d(FilterKind::Tent, float(oy) + u[k].y - 0.5f);
+            if (w != 0.f) S += L[(size_t(y + oy + r) * SW + (x + ox + r)) * spp + k] * w;
+          }
+        ASSERT_TRUE(is_finite(S));
+        want.add(x, y, S);
+      }
+  for (int threads : {1, 2, 3}) expect_same_film(run(s, threads).film, want, "splatting on " + std::to_string(threads) + " threads");
+  expect_same_film(run(s, 2, 5).film, want, "splatting in passes of 5");
 }
 
 TEST(Render, SameFilmForAnyThreadCount) {
@@ -239,8 +290,11 @@ TEST(Render, RequestsThatContradictTheSceneAreRefused) {
   expect_same_film(same.film, head.film, "an empty range");
   RenderRequest req;
   req.device = RenderDevice::Cuda;
+  EXPECT_THROW(render(s, req), std::invalid_argument) << "the CUDA device has filter sampling only";
+  Scene fis = s;
+  fis.settings.reconstruction = Reconstruction::FilterSampling;
   std::string why;
-  if (!cuda_available(&why)) EXPECT_THROW(render(s, req), CudaError);
+  if (!cuda_available(&why)) EXPECT_THROW(render(fis, req), CudaError);
 }
 
 using RenderCli = luz_test::LuzCliTest;

@@ -92,7 +92,7 @@ struct RenderOptions {
   std::vector<std::string> outs;
   int spp = 0, threads = 0, max_depth = 0;
   long long seed = -1;
-  std::string sampler, integrator, light_sampler, device = "cpu";
+  std::string sampler, integrator, light_sampler, reconstruction, device = "cpu";
   double time_limit = 0, scale = 0;
   std::string res;
   std::vector<std::string> defines, search;
@@ -123,6 +123,7 @@ struct RenderOptions {
     put("sampler", sampler);
     put("integrator", integrator);
     put("light-sampler", light_sampler);
+    put("reconstruction", reconstruction);
     put("device", device);
     put("res", res);
     put("scale", exact(scale));
@@ -155,6 +156,7 @@ struct RenderOptions {
       else if (k == "sampler") o.sampler = v;
       else if (k == "integrator") o.integrator = v;
       else if (k == "light-sampler") o.light_sampler = v;
+      else if (k == "reconstruction") o.reconstruction = v;
       else if (k == "device") o.device = v;
       else if (k == "res") o.res = v;
       else if (k == "scale") num(k, v, o.scale);
@@ -276,6 +278,8 @@ void apply_flags(luz::RenderSettings& s, const RenderOptions& o, std::vector<std
   else if (o.integrator == "light") s.integrator.type = luz::IntegratorType::Light;
   if (o.light_sampler == "bvh") s.light_sampler = luz::LightSamplerType::Bvh;
   else if (o.light_sampler == "power") s.light_sampler = luz::LightSamplerType::Power;
+  if (o.reconstruction == "splat") s.reconstruction = luz::Reconstruction::Splat;
+  else if (o.reconstruction == "filter") s.reconstruction = luz::Reconstruction::FilterSampling;
   if (o.spp > 0) s.spp = uint32_t(o.spp);
   if (o.seed >= 0) s.seed = uint64_t(o.seed);
   if (o.max_depth != 0) s.integrator.max_depth = o.max_depth;
@@ -405,6 +409,7 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
     keep("--sampler", o.sampler, was.sampler);
     keep("--integrator", o.integrator, was.integrator);
     keep("--light-sampler", o.light_sampler, was.light_sampler);
+    keep("--reconstruction", o.reconstruction, was.reconstruction);
     keep("--device", o.device, was.device);
     keep("--res", o.res, was.res);
     keep("--scale", o.scale, was.scale);
@@ -458,6 +463,12 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
   resize(scene, o);
   luz::RenderSettings& s = scene.settings;
   apply_flags(s, o, scene.warnings);
+  if (use_cuda && luz::splats(s.reconstruction, s.filter)) {
+    if (o.reconstruction == "splat") throw luz::InputError("--reconstruction splat: the CUDA device has filter sampling only");
+    s.reconstruction = luz::Reconstruction::FilterSampling;
+    scene.warnings.push_back(std::string("luz: warning: --device cuda: the ") + luz::filter_name(s.filter) +
+                             " filter is applied by filter sampling (splatting is CPU-only): the same image, noisier");
+  }
   check_memory(scene);
   const luz::RenderDevice device = use_cuda ? luz::RenderDevice::Cuda : luz::RenderDevice::Cpu;
   const luz::RenderFields fields = luz::render_fields(scene, device);
@@ -687,6 +698,11 @@ int run(int argc, char** argv, luz::MpiJob* job) {
   rc->add_option("--light-sampler", o.light_sampler,
                  "light selection: power (default: by power alone) or bvh (a light BVH: also by distance and orientation)")
       ->check(CLI::IsMember({"power", "bvh"}));
+  rc->add_option("--reconstruction", o.reconstruction,
+                 "how samples make pixels: splat (default, as Mitsuba: each sample weighed into every pixel its filter "
+                 "reaches; less noise) or filter (as pbrt-v4: filter importance sampling, each sample in one pixel, "
+                 "pixels' noise independent); the same for the box filter")
+      ->check(CLI::IsMember({"splat", "filter"}));
   rc->add_option("--device", o.device, "where to render: cpu (default), cuda (an NVIDIA GPU), auto (cuda if usable)")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   rc->add_option("--res", o.res, "render at WIDTHxHEIGHT instead of the scene's size (the field of view kept along the scene's axis)");
@@ -758,7 +774,7 @@ int run(int argc, char** argv, luz::MpiJob* job) {
     }
     std::set<std::string> given;
     for (const char* flag : {"scene", "-o", "--spp", "--seed", "--max-depth", "--sampler", "--integrator",
-                             "--light-sampler", "--device", "--res", "--scale", "-D", "-a", "--checkpoint",
+                             "--light-sampler", "--reconstruction", "--device", "--res", "--scale", "-D", "-a", "--checkpoint",
                              "--checkpoint-every", "--aov", "--camera"})
       if (rc->get_option(flag)->count() > 0) given.insert(flag);
     if (!resume.empty() && given.count("scene"))

@@ -73,4 +73,15 @@ LUZ_INLINE Ray camera_sample(const Camera& cam, uint32_t x, uint32_t y, Sampler&
   return cam.generate_ray(float(x) + 0.5f + off.x, float(y) + 0.5f + off.y, u);
 }
 
+// Splatting's camera ray (film/splat.h): through film position (x, y) + at,
+// `at` the sample's offset in the square of pixel (x, y) (the same in every
+// square for one sample index: splat_offset), the square possibly outside
+// the image. Dimension 0 is the offset's (drawn there); the lens sample as
+// camera_sample's.
+LUZ_INLINE Ray camera_sample_at(const Camera& cam, int x, int y, Sampler& sampler, Vec2 at) {
+  const uint32_t d = sampler.dim++;
+  const Vec2 u = cam.has_lens() ? sampler.aux_2d(d) : Vec2{0.5f, 0.5f};
+  return cam.generate_ray(float(x) + at.x, float(y) + at.y, u);
+}
+
 }  // namespace luz

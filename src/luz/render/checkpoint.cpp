@@ -199,6 +199,7 @@ RenderFields render_fields(const Scene& scene, RenderDevice device) {
   f.emplace_back("Russian roulette depth", std::to_string(s.integrator.rr_depth));
   f.emplace_back("emitters seen directly", s.integrator.hide_emitters ? "hidden" : "shown");
   f.emplace_back("pixel filter", filter_name(s.filter));
+  f.emplace_back("reconstruction", splats(s.reconstruction, s.filter) ? "splat" : "filter sampling");
   f.emplace_back("light sampler", light_sampler_name(s.light_sampler));
   f.emplace_back("device", device == RenderDevice::Cuda ? "cuda" : "cpu");
   Hasher camera;

@@ -21,6 +21,9 @@ struct RenderSettings {
   uint64_t seed = 0;
   IntegratorParams integrator;
   FilterKind filter = FilterKind::Box;
+  // Splatting by default: 2-3x less variance per pixel than filter sampling
+  // for the tent and gaussian (bench/RESULTS.md); the CPU device only.
+  Reconstruction reconstruction = Reconstruction::Splat;
   // Power by default: it measured the more efficient on bench/manylight.
   LightSamplerType light_sampler = LightSamplerType::Power;
   ExrFormat exr_format;  // how .exr outputs are written (Mitsuba's hdrfilm formats)

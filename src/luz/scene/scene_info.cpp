@@ -114,7 +114,8 @@ std::string describe_scene(const Scene& s) {
   line("camera", camera);
   const RenderSettings& r = s.settings;
   const char* filter = filter_name(r.filter);
-  line("film", std::to_string(c.width) + "×" + std::to_string(c.height) + ", " + filter + " filter");
+  line("film", std::to_string(c.width) + "×" + std::to_string(c.height) + ", " + filter + " filter" +
+                   (splats(r.reconstruction, r.filter) ? ", splatted" : ""));
   const char* integ = integrator_name(r.integrator.type);
   line("integrator", std::string(integ) + ", max depth " +
                          (r.integrator.max_depth < 0 ? std::string("unbounded") : std::to_string(r.integrator.max_depth)) +
