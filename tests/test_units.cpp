@@ -124,6 +124,8 @@ TEST(UnitScheduler, BlockSizeGivesEveryWorkerBlocksAndUnitsTheirSamples) {
   EXPECT_EQ(block_size_for(3, 1, 2), 1);
   // Few samples on many-thread ranks: larger blocks, while enough remain.
   EXPECT_EQ(block_size_for(3840, 2160, 64, 4096, (uint64_t(1) << 18) * 16), 32);
+  EXPECT_EQ(block_size_for(256, 256, 4, 0, 0, 32), 32);  // splatting's start
+  EXPECT_EQ(block_size_for(64, 64, 4, 0, 0, 32), 16);     // halved for the workers' 4 blocks each
   EXPECT_EQ(block_size_for(3840, 2160, 64, 64, (uint64_t(1) << 18) * 16), 64);
   EXPECT_EQ(block_size_for(3840, 2160, 1000, 64, (uint64_t(1) << 18) * 16), 16);  // 32² would leave 8 blocks a rank
   EXPECT_EQ(block_size_for(256, 256, 2, 64, (uint64_t(1) << 18) * 2), 32);

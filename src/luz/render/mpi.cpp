@@ -354,7 +354,8 @@ RenderResult MpiJob::render(const Scene& scene, const RenderRequest& req) {
   for (int t : j.threads) threads += uint64_t(std::max(t, 1));
   const uint32_t spp = req.end_sample.value_or(scene.settings.spp) - req.first_sample;
   return render_units(scene, req, &remote,
-                      block_size_for(cam.width, cam.height, j.size, spp, kPassSamplesPerThread * threads / uint64_t(j.size)));
+                      block_size_for(cam.width, cam.height, j.size, spp, kPassSamplesPerThread * threads / uint64_t(j.size),
+                                     unit_block_start(scene.settings)));
 }
 
 void MpiJob::broadcast(std::string& bytes) {

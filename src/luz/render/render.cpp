@@ -112,7 +112,7 @@ RenderResult render(const Scene& scene, const RenderRequest& req) {
   if (req.start && !req.start->next.empty()) {
     if (req.device != RenderDevice::Cpu)
       throw std::invalid_argument("render: a film rendered by blocks (an MPI render's checkpoint) continues on the CPU");
-    return render_units(scene, req, nullptr, kUnitBlock);
+    return render_units(scene, req, nullptr, unit_block_start(scene.settings));
   }
   const Camera& cam = scene.camera;
   const uint32_t first = req.first_sample, end = req.end_sample.value_or(scene.settings.spp);

@@ -90,7 +90,9 @@ std::vector<uint32_t> UnitScheduler::pixel_next() const {
   return px;
 }
 
-int block_size_for(int width, int height, int workers, uint32_t spp, uint64_t unit_samples) {
+int unit_block_start(const RenderSettings& s) { return splats(s.reconstruction, s.filter) ? 2 * kUnitBlock : kUnitBlock; }
+
+int block_size_for(int width, int height, int workers, uint32_t spp, uint64_t unit_samples, int start) {
   // Blocks per worker below which the last units leave workers idle, and
   // below which blocks do not grow (the frame's end waits up to a unit).
   constexpr uint64_t kBlocksPerWorker = 4, kGrowBlocksPerWorker = 16;
@@ -98,7 +100,7 @@ int block_size_for(int width, int height, int workers, uint32_t spp, uint64_t un
   const uint64_t enough = kBlocksPerWorker * uint64_t(std::max(workers, 1));
   const uint64_t plenty = kGrowBlocksPerWorker * uint64_t(std::max(workers, 1));
   auto blocks = [&](int size) { return uint64_t((width + size - 1) / size) * uint64_t((height + size - 1) / size); };
-  int size = kUnitBlock;
+  int size = start;
   // Larger while a whole block's samples are short of a unit and the blocks
   // stay many: each unit's fixed cost to rank 0 then buys more samples.
   while (size < kMaxBlock && uint64_t(size) * uint64_t(size) * spp < unit_samples && blocks(2 * size) >= plenty)

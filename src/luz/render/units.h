@@ -70,11 +70,18 @@ class UnitScheduler {
   int out_ = 0;
 };
 
-// A power-of-two block size: kUnitBlock, doubled (up to 64) while a whole
-// block's `spp` samples are fewer than a unit's `unit_samples` (many-thread
-// ranks, few samples) and every worker keeps 16 blocks, halved while the
-// workers would have fewer than 4 blocks each (a small image on many ranks).
-int block_size_for(int width, int height, int workers, uint32_t spp = 0, uint64_t unit_samples = 0);
+// A power-of-two block size: `start` (kUnitBlock; larger for splatting,
+// whose units also render a border of pixels around their block), doubled
+// (up to 64) while a whole block's `spp` samples are fewer than a unit's
+// `unit_samples` (many-thread ranks, few samples) and every worker keeps 16
+// blocks, halved while the workers would have fewer than 4 blocks each (a
+// small image on many ranks).
+int block_size_for(int width, int height, int workers, uint32_t spp = 0, uint64_t unit_samples = 0,
+                   int start = kUnitBlock);
+// The block size units start from for a scene: kUnitBlock, or 32 when it
+// splats (a unit then takes 13% more samples than its pixels' for the
+// tent's border, against 27% at 16).
+int unit_block_start(const RenderSettings& s);
 
 // A finished (or abandoned) unit.
 struct UnitResult {
