@@ -98,50 +98,55 @@ TEST(Render, FilmIsTheSamplesAddedInIndexOrder) {
 // Splatting (film/splat.h), as plainly as it can be written: every square
 // of the image and a border of one (the tent's reach) takes samples at the
 // shared offsets; pixel p's k-th sample weighs the k-th samples of the nine
-// squares around it. 5 × 3 tiles of 64 (the last column 8 wide, the last
-// row 8 tall), 34 samples (two chunks of a tile's samples): on 1 thread
-// whole tiles, on 2 and 3 tiles split by samples, and passes of 5 spp.
+// squares around it. 34 samples (two chunks of a tile's samples). 264 × 136
+// on 1, 2 and 3 threads: whole tiles of 64 and 32 (5 × 3 and 9 × 5, the
+// last column and row cut short), each with its border; in passes of 5 spp
+// and at 40 × 24, tiles split by samples.
 TEST(Render, SplattedFilmIsItsDefinition) {
-  Scene s = box(8, 34);
-  s.set_resolution(264, 136);
-  s.settings.integrator.max_depth = 3;
-  ASSERT_EQ(s.settings.filter, FilterKind::Tent);
-  ASSERT_EQ(s.settings.reconstruction, Reconstruction::Splat);
-  const int W = 264, H = 136, r = 1;
-  const uint32_t spp = 34;
-  const SceneView view = s.view();
-  EmbreeScene embree(s);
-  const EmbreeTracer tracer = embree.tracer();
-  const SamplerDesc desc = make_sampler_desc(s.settings.sampler, spp, s.settings.seed);
-  const int SW = W + 2 * r, SH = H + 2 * r;
-  std::vector<Color> L(size_t(SW) * SH * spp);
-  std::vector<Vec2> u(spp);
-  for (uint32_t k = 0; k < spp; ++k) u[k] = splat_offset(desc, k);
-  for (int y = -r; y < H + r; ++y)
-    for (int x = -r; x < W + r; ++x)
-      for (uint32_t k = 0; k < spp; ++k) {
-        Sampler sampler;
-        sampler.start(desc, uint32_t(x), uint32_t(y), k);
-        uint64_t rays = 0;
-        L[(size_t(y + r) * SW + (x + r)) * spp + k] =
-            path_li(view, tracer, camera_sample_at(view.camera, x, y, sampler, u[k]), sampler, s.settings.integrator, rays);
-      }
-  Film want(W, H);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x)
-      for (uint32_t k = 0; k < spp; ++k) {
-        Color S{};
-        for (int oy = -r; oy <= r; ++oy)
-          for (int ox = -r; ox <= r; ++ox) {
-            const float w = filter_weight_1d(FilterKind::Tent, float(ox) + u[k].x - 0.5f) *
-                            filter_weight_1d(FilterKind::Tent, float(oy) + u[k].y - 0.5f);
-            if (w != 0.f) S += L[(size_t(y + oy + r) * SW + (x + ox + r)) * spp + k] * w;
-          }
-        ASSERT_TRUE(is_finite(S));
-        want.add(x, y, S);
-      }
-  for (int threads : {1, 2, 3}) expect_same_film(run(s, threads).film, want, "splatting on " + std::to_string(threads) + " threads");
-  expect_same_film(run(s, 2, 5).film, want, "splatting in passes of 5");
+  for (const auto& [W, H] : {std::pair{264, 136}, std::pair{40, 24}}) {
+    Scene s = box(8, 34);
+    s.set_resolution(W, H);
+    s.settings.integrator.max_depth = 3;
+    ASSERT_EQ(s.settings.filter, FilterKind::Tent);
+    ASSERT_EQ(s.settings.reconstruction, Reconstruction::Splat);
+    const int r = 1;
+    const uint32_t spp = 34;
+    const SceneView view = s.view();
+    EmbreeScene embree(s);
+    const EmbreeTracer tracer = embree.tracer();
+    const SamplerDesc desc = make_sampler_desc(s.settings.sampler, spp, s.settings.seed);
+    const int SW = W + 2 * r, SH = H + 2 * r;
+    std::vector<Color> L(size_t(SW) * SH * spp);
+    std::vector<Vec2> u(spp);
+    for (uint32_t k = 0; k < spp; ++k) u[k] = splat_offset(desc, k);
+    for (int y = -r; y < H + r; ++y)
+      for (int x = -r; x < W + r; ++x)
+        for (uint32_t k = 0; k < spp; ++k) {
+          Sampler sampler;
+          sampler.start(desc, uint32_t(x), uint32_t(y), k);
+          uint64_t rays = 0;
+          L[(size_t(y + r) * SW + (x + r)) * spp + k] = path_li(
+              view, tracer, camera_sample_at(view.camera, x, y, sampler, u[k]), sampler, s.settings.integrator, rays);
+        }
+    Film want(W, H);
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        for (uint32_t k = 0; k < spp; ++k) {
+          Color S{};
+          for (int oy = -r; oy <= r; ++oy)
+            for (int ox = -r; ox <= r; ++ox) {
+              const float w = filter_weight_1d(FilterKind::Tent, float(ox) + u[k].x - 0.5f) *
+                              filter_weight_1d(FilterKind::Tent, float(oy) + u[k].y - 0.5f);
+              if (w != 0.f) S += L[(size_t(y + oy + r) * SW + (x + ox + r)) * spp + k] * w;
+            }
+          ASSERT_TRUE(is_finite(S));
+          want.add(x, y, S);
+        }
+    const std::string size = std::to_string(W) + "x" + std::to_string(H);
+    for (int threads : {1, 2, 3})
+      expect_same_film(run(s, threads).film, want, size + " splatted on " + std::to_string(threads) + " threads");
+    expect_same_film(run(s, 2, 5).film, want, size + " splatted in passes of 5");
+  }
 }
 
 TEST(Render, SameFilmForAnyThreadCount) {

@@ -20,9 +20,13 @@ namespace {
 constexpr int kTile = 16;
 // Splatting's tiles: each computes the squares of a border `reach` wide
 // around it too (those its pixels' filters reach), again for every tile
-// that borders them: 6% more samples than the image's for the tent at 64
-// (27% at 16).
-constexpr int kSplatTile = 64;
+// that borders them: for the tent 3% more samples than the image's at 128,
+// 6% at 64, 27% at 16. So the largest size, 128, where its tiles keep the
+// threads busy or where splitting them by samples costs little memory (a
+// small image, an MPI unit: the buffer holds every pixel's samples of the
+// pass); otherwise halved (down to kTile) until the tiles are enough.
+constexpr int kSplatTile = 128;
+constexpr uint64_t kSplitBufferBytes = uint64_t(16) << 20;
 // Splatting computes a tile's samples in chunks of at most this many per
 // square (the squares' samples are kept until their pixels have them).
 constexpr uint32_t kSplatChunk = 32;
@@ -64,7 +68,16 @@ struct CpuDevice::Impl {
         splat(splats(rs.reconstruction, rs.filter)),
         reach(splat ? filter_reach(rs.filter) : 0) {}
 
-  int tile() const { return splat ? kSplatTile : kTile; }
+  // The tile size for a pass of n samples over `rect`, for `want` work items.
+  int tile(const PixelRect& rect, uint64_t want, uint32_t n) const {
+    if (!splat) return kTile;
+    auto tiles = [&](int t) { return uint64_t((rect.width() + t - 1) / t) * uint64_t((rect.height() + t - 1) / t); };
+    int t = kSplatTile;
+    while (t > kTile && t / 2 >= std::max(rect.width(), rect.height())) t /= 2;  // no larger than the rect
+    if (tiles(t) * uint64_t(t) * uint64_t(t) * n * sizeof(Color) <= kSplitBufferBytes) return t;
+    while (t > kTile && tiles(t) < want) t /= 2;
+    return t;
+  }
 
   // Splatting: samples [a, b) of every pixel of [x0, x1) × [y0, y1)
   // (film/splat.h), chunk by chunk; each chunk hands sink(x, y, S, n, c0)
@@ -137,13 +150,13 @@ PassResult CpuDevice::render_pass(const Film& in, Film& out, uint32_t first, uin
 PassResult CpuDevice::render_pass(const Film& in, Film& out, const PixelRect& rect, uint32_t first, uint32_t end,
                                   const PassHooks& hooks) {
   Impl& m = *m_;
-  const int kTile = m.tile();
-  const int tiles_x = (rect.width() + kTile - 1) / kTile, tiles_y = (rect.height() + kTile - 1) / kTile;
-  const int tiles = tiles_x * tiles_y;
-  const uint32_t n = end - first;
   // Items per tile: 1 when the tiles alone keep the cores busy (then the
   // buffer, kTile² × n radiances per tile, would be the largest).
   const uint64_t want = uint64_t(kItemsPerThread) * uint64_t(threads());
+  const uint32_t n = end - first;
+  const int kTile = m.tile(rect, want, n);
+  const int tiles_x = (rect.width() + kTile - 1) / kTile, tiles_y = (rect.height() + kTile - 1) / kTile;
+  const int tiles = tiles_x * tiles_y;
   // Samples an item takes per sample index: a whole tile's, or for
   // splatting the squares of a tile and its border.
   const uint64_t tile_px =

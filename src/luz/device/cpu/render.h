@@ -1,8 +1,8 @@
 // The CPU device: passes of the shared integrator on all cores (TBB), Embree
 // for ray queries. render() (render/render.h) schedules the passes.
 //
-// A pass's work items are (tile of 16×16 pixels) × (range of sample
-// indices). On an image of many tiles an item takes all the pass's samples
+// A pass's work items are (tile of 16×16 pixels; splatting: 128 down to 16,
+// film/splat.h) × (range of sample indices). On an image of many tiles an item takes all the pass's samples
 // of its tile and adds them to each pixel's sums as it goes. On an image of
 // few tiles a tile's samples are split into several items, so that every
 // core is busy and the progress moves even on a 16×16 image: each item
@@ -11,7 +11,9 @@
 // pixel's sums are built by adding its samples one by one in index order
 // onto the film's previous sums, which is what makes the film independent of
 // the thread count and of the pass schedule; partial sums added together
-// would round differently for different splits.
+// would round differently for different splits. A splatting tile also
+// computes the squares of a border around it, which its pixels' filters
+// reach, so that no pixel's samples depend on another item.
 #pragma once
 
 #include <cstdint>
