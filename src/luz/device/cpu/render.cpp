@@ -52,7 +52,7 @@ struct CpuDevice::Impl {
   const RenderSettings& rs;
   SamplerDesc desc;
   tbb::task_arena arena;
-  std::vector<Color> samples;  // split tiles' radiance, kTile² × n per tile
+  std::vector<Color> samples;  // split tiles' radiance, tile² × n per tile
   std::unique_ptr<std::atomic<uint32_t>[]> unfinished;  // split tiles' items still running
 
   bool splat;
@@ -151,24 +151,24 @@ PassResult CpuDevice::render_pass(const Film& in, Film& out, const PixelRect& re
                                   const PassHooks& hooks) {
   Impl& m = *m_;
   // Items per tile: 1 when the tiles alone keep the cores busy (then the
-  // buffer, kTile² × n radiances per tile, would be the largest).
+  // buffer, tile_size² × n radiances per tile, would be the largest).
   const uint64_t want = uint64_t(kItemsPerThread) * uint64_t(threads());
   const uint32_t n = end - first;
-  const int kTile = m.tile(rect, want, n);
-  const int tiles_x = (rect.width() + kTile - 1) / kTile, tiles_y = (rect.height() + kTile - 1) / kTile;
+  const int tile_size = m.tile(rect, want, n);
+  const int tiles_x = (rect.width() + tile_size - 1) / tile_size, tiles_y = (rect.height() + tile_size - 1) / tile_size;
   const int tiles = tiles_x * tiles_y;
   // Samples an item takes per sample index: a whole tile's, or for
   // splatting the squares of a tile and its border.
   const uint64_t tile_px =
-      m.splat ? uint64_t(std::min(kTile, rect.width()) + 2 * m.reach) * uint64_t(std::min(kTile, rect.height()) + 2 * m.reach)
-              : uint64_t(kTile) * uint64_t(kTile);
+      m.splat ? uint64_t(std::min(tile_size, rect.width()) + 2 * m.reach) * uint64_t(std::min(tile_size, rect.height()) + 2 * m.reach)
+              : uint64_t(tile_size) * uint64_t(tile_size);
   uint32_t split = 1;
   if (uint64_t(tiles) < want)
     split = uint32_t(std::clamp<uint64_t>(std::max((want + tiles - 1) / tiles,
                                                    (tile_px * n + kMaxItemSamples - 1) / kMaxItemSamples),
                                           1, std::max(n, 1u)));
   if (split > 1) {
-    m.samples.resize(size_t(tiles) * kTile * kTile * n);
+    m.samples.resize(size_t(tiles) * tile_size * tile_size * n);
     m.unfinished = std::make_unique<std::atomic<uint32_t>[]>(size_t(tiles));
     for (int t = 0; t < tiles; ++t) m.unfinished[t].store(split, std::memory_order_relaxed);
   }
@@ -181,8 +181,8 @@ PassResult CpuDevice::render_pass(const Film& in, Film& out, const PixelRect& re
       return;
     }
     const int tile = it / int(split), part = it % int(split);
-    const int x0 = rect.x0 + (tile % tiles_x) * kTile, y0 = rect.y0 + (tile / tiles_x) * kTile;
-    const int x1 = std::min(x0 + kTile, rect.x1), y1 = std::min(y0 + kTile, rect.y1);
+    const int x0 = rect.x0 + (tile % tiles_x) * tile_size, y0 = rect.y0 + (tile / tiles_x) * tile_size;
+    const int x1 = std::min(x0 + tile_size, rect.x1), y1 = std::min(y0 + tile_size, rect.y1);
     const uint32_t k0 = uint32_t(uint64_t(n) * part / split), k1 = uint32_t(uint64_t(n) * (part + 1) / split);
     uint64_t item_rays = 0, bad = 0;
     DimSeeds seeds[kSeedCacheDims];
@@ -217,16 +217,16 @@ PassResult CpuDevice::render_pass(const Film& in, Film& out, const PixelRect& re
         for (int x = x0; x < x1; ++x)
           add_all(x, y, [&](auto&& sink) { m.take(uint32_t(x), uint32_t(y), first, end, seeds, item_rays, sink); });
     } else {
-      Color* buf = m.samples.data() + size_t(tile) * kTile * kTile * n;
+      Color* buf = m.samples.data() + size_t(tile) * tile_size * tile_size * n;
       if (m.splat) {
         m.take_splat(x0, y0, x1, y1, first + k0, first + k1, seeds, item_rays,
                      [&](int x, int y, const Color* S, uint32_t count, uint32_t c0) {
-                       std::copy(S, S + count, buf + (size_t(y - y0) * kTile + (x - x0)) * n + (c0 - first));
+                       std::copy(S, S + count, buf + (size_t(y - y0) * tile_size + (x - x0)) * n + (c0 - first));
                      });
       } else {
         for (int y = y0; y < y1; ++y)
           for (int x = x0; x < x1; ++x) {
-            Color* dst = buf + (size_t(y - y0) * kTile + (x - x0)) * n + k0;
+            Color* dst = buf + (size_t(y - y0) * tile_size + (x - x0)) * n + k0;
             m.take(uint32_t(x), uint32_t(y), first + k0, first + k1, seeds, item_rays, [&](const Color& L) { *dst++ = L; });
           }
       }
@@ -234,7 +234,7 @@ PassResult CpuDevice::render_pass(const Film& in, Film& out, const PixelRect& re
       if (m.unfinished[tile].fetch_sub(1, std::memory_order_acq_rel) == 1)
         for (int y = y0; y < y1; ++y)
           for (int x = x0; x < x1; ++x) {
-            const Color* src = buf + (size_t(y - y0) * kTile + (x - x0)) * n;
+            const Color* src = buf + (size_t(y - y0) * tile_size + (x - x0)) * n;
             add_all(x, y, [&](auto&& sink) {
               for (uint32_t k = 0; k < n; ++k) sink(src[k]);
             });
