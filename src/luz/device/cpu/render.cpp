@@ -152,7 +152,8 @@ PassResult CpuDevice::render_pass(const Film& in, Film& out, const PixelRect& re
   Impl& m = *m_;
   // Items per tile: 1 when the tiles alone keep the cores busy (then the
   // buffer, tile_size² × n radiances per tile, would be the largest).
-  const uint64_t want = uint64_t(kItemsPerThread) * uint64_t(threads());
+  // Splatting asks half as many: each tile more means more border squares.
+  const uint64_t want = uint64_t(m.splat ? kItemsPerThread / 2 : kItemsPerThread) * uint64_t(threads());
   const uint32_t n = end - first;
   const int tile_size = m.tile(rect, want, n);
   const int tiles_x = (rect.width() + tile_size - 1) / tile_size, tiles_y = (rect.height() + tile_size - 1) / tile_size;
