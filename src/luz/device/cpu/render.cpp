@@ -86,8 +86,10 @@ struct CpuDevice::Impl {
   void take_splat(int x0, int y0, int x1, int y1, uint32_t a, uint32_t b, DimSeeds* seeds, uint64_t& rays,
                   Sink&& sink) const {
     const int r = reach, cw = x1 - x0 + 2 * r, ch = y1 - y0 + 2 * r;
-    thread_local std::vector<Color> squares;  // [square][k]
-    thread_local std::vector<Color> S;
+    // The item's own (a few megabytes, against seconds of paths): nothing
+    // stays allocated once the render is done.
+    std::vector<Color> squares;  // [square][k]
+    std::vector<Color> S;
     SplatWeights weights[kSplatChunk];
     for (uint32_t c0 = a; c0 < b; c0 += kSplatChunk) {
       const uint32_t n = std::min(kSplatChunk, b - c0);
