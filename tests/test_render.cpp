@@ -99,7 +99,7 @@ TEST(Render, FilmIsTheSamplesAddedInIndexOrder) {
 // of the image and a border of one (the tent's reach) takes samples at the
 // shared offsets; pixel p's k-th sample weighs the k-th samples of the nine
 // squares around it. 34 samples (two chunks of a tile's samples). 264 × 136
-// on 1, 2 and 3 threads: whole tiles of 64 and 32 (5 × 3 and 9 × 5, the
+// on 1, 2 and 3 threads: whole tiles of 128 and 64 (3 × 2 and 5 × 3, the
 // last column and row cut short), each with its border; in passes of 5 spp
 // and at 40 × 24, tiles split by samples.
 TEST(Render, SplattedFilmIsItsDefinition) {
