@@ -755,6 +755,15 @@ TEST_F(PbrtScene, PowerPerPatchAndPlyFace) {
   EXPECT_NEAR(r[1], 10 / (M_PI * 2), 1e-6);  // the 2 × 1 quad: 2 × 0.5 × 2
   EXPECT_NEAR(r[2], 10 / (M_PI * 0.5), 1e-6);
 
+  // A trianglemesh's triangles are its shapes, their areas in the world too:
+  // a right triangle of legs 1 under `Scale 2 3 1`, area 3.
+  Scene t = load_scene(write("t.pbrt", scene_text("",
+      "AreaLightSource \"diffuse\" \"float power\" 10\nScale 2 3 1\n"
+      "Shape \"trianglemesh\" \"point3 P\" [ 0 0 0  1 0 0  0 1 0 ] \"integer indices\" [ 0 1 2 ]\n")));
+  const std::vector<float> tr = radiances(t);
+  ASSERT_EQ(tr.size(), 1u);
+  EXPECT_NEAR(tr[0], 10 / (M_PI * 3), 1e-6);
+
   std::ofstream(dir / "p.ply") << "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n"
                                   "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
                                   "0 0 0\n1 0 0\n1 1 0\n0.5 1.5 0\n0 1 0\n5 0 1 2 3 4\n";

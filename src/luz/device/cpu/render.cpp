@@ -120,7 +120,7 @@ struct CpuDevice::Impl {
             S[k] = splat_gather(r, weights[k], [&](int ox, int oy) -> const Color& {
               return squares[base + (ptrdiff_t(oy) * cw + ox) * ptrdiff_t(n) + k];
             });
-          sink(x, y, static_cast<const Color*>(S.data()), n, c0);
+          sink(x, y, S.data(), n, c0);
         }
     }
   }

@@ -796,7 +796,7 @@ class PbrtScene final : public ParserTarget {
       mesh.normals = std::move(ply.normals);
       mesh.uvs = std::move(ply.uvs);
       mesh.indices = std::move(ply.indices);
-      if (per_shape) ply_shapes(at, mesh, ply.face_first_triangle, shapes);
+      if (per_shape) mesh_shapes(at, mesh, ply.face_first_triangle, shapes);
     } else if (name == "bilinearmesh") {
       bilinear_mesh(at, ps, mesh, per_shape ? &shapes : nullptr);
     } else if (name == "disk") {
@@ -807,7 +807,7 @@ class PbrtScene final : public ParserTarget {
     } else {
       error(at, "shape '" + name + "' is not supported (trianglemesh, plymesh, bilinearmesh, disk, sphere)");
     }
-    if (per_shape && name == "trianglemesh") triangle_shapes(mesh, shapes);
+    if (per_shape && name == "trianglemesh") mesh_shapes(at, mesh, {}, shapes);
     has_normals = !mesh.normals.empty();
     for (Vec2& uv : mesh.uvs) uv.y = 1.f - uv.y;
     const uint32_t mat = current_material();
@@ -880,42 +880,23 @@ class PbrtScene final : public ParserTarget {
     return half_cross(e, f);
   }
 
-  // Each triangle a shape (a trianglemesh, or a plymesh of triangles only);
-  // positions already in the world.
-  static void triangle_shapes(const TriangleMesh& mesh, PbrtShapes& shapes) {
-    const auto& ix = mesh.indices;
-    for (size_t k = 0; k + 2 < ix.size(); k += 3) {
-      shapes.first.push_back(uint32_t(k / 3));
-      shapes.area.push_back(triangle_area(mesh.positions[ix[k]], mesh.positions[ix[k + 1]], mesh.positions[ix[k + 2]]));
-    }
-  }
-
-  // A plymesh's faces as pbrt-v4 reads them: a triangle, or a quad (v0, v1,
-  // v2, v3) as the bilinear patch p00 = v0, p10 = v1, p01 = v3, p11 = v2;
-  // pbrt skips larger faces, so a power cannot be shared over one. Positions
-  // are still in object space here.
-  void ply_shapes(const SourceLoc& at, const TriangleMesh& mesh, const std::vector<uint32_t>& face_first,
-                  PbrtShapes& shapes) const {
-    const Matrix4& m = gs_.ctm;
-    const auto& ix = mesh.indices;
-    const size_t triangles = ix.size() / 3;
-    if (face_first.empty()) {
-      for (size_t t = 0; t < triangles; ++t) {
-        shapes.first.push_back(uint32_t(t));
-        shapes.area.push_back(triangle_area(m.point(mesh.positions[ix[3 * t]]), m.point(mesh.positions[ix[3 * t + 1]]),
-                                            m.point(mesh.positions[ix[3 * t + 2]])));
-      }
-      return;
-    }
-    for (size_t f = 0; f < face_first.size(); ++f) {
-      const size_t t = face_first[f], n = (f + 1 < face_first.size() ? face_first[f + 1] : triangles) - t;
+  // A trianglemesh's or plymesh's pbrt shapes, before `orient` moves the
+  // positions into the world: each triangle, or with `face_first` (the PLY
+  // reader's) each face, a quad (v0, v1, v2, v3) as pbrt-v4's bilinear patch
+  // p00 = v0, p10 = v1, p01 = v3, p11 = v2. pbrt skips larger faces, so a
+  // power cannot be shared over one.
+  void mesh_shapes(const SourceLoc& at, const TriangleMesh& mesh, const std::vector<uint32_t>& face_first,
+                   PbrtShapes& shapes) const {
+    const size_t triangles = mesh.indices.size() / 3, faces = face_first.empty() ? triangles : face_first.size();
+    auto first = [&](size_t f) { return face_first.empty() ? f : size_t(face_first[f]); };
+    auto corner = [&](size_t i) { return gs_.ctm.point(mesh.positions[mesh.indices[i]]); };
+    for (size_t f = 0; f < faces; ++f) {
+      const size_t t = first(f), n = (f + 1 < faces ? first(f + 1) : triangles) - t;
       shapes.first.push_back(uint32_t(t));
       if (n == 1) {
-        shapes.area.push_back(triangle_area(m.point(mesh.positions[ix[3 * t]]), m.point(mesh.positions[ix[3 * t + 1]]),
-                                            m.point(mesh.positions[ix[3 * t + 2]])));
+        shapes.area.push_back(triangle_area(corner(3 * t), corner(3 * t + 1), corner(3 * t + 2)));
       } else if (n == 2) {
-        const Vec3 c[4] = {m.point(mesh.positions[ix[3 * t]]), m.point(mesh.positions[ix[3 * t + 1]]),
-                           m.point(mesh.positions[ix[3 * t + 5]]), m.point(mesh.positions[ix[3 * t + 2]])};
+        const Vec3 c[4] = {corner(3 * t), corner(3 * t + 1), corner(3 * t + 5), corner(3 * t + 2)};
         shapes.area.push_back(patch_area(c));
       } else {
         error(at, "area light 'power' on a plymesh with a face of " + std::to_string(n + 2) +
