@@ -6,11 +6,12 @@
 //
 // Each variant (a sampler; LIST is comma-separated from scene, independent,
 // stratified, sobol; `scene` is the one the scene file names; a suffix /rrN
-// sets Russian roulette's first depth, as sobol/rr2; a last suffix /fis
+// sets Russian roulette's first depth, as sobol/rr2; a suffix /fis
 // applies the pixel filter by filter sampling instead of splatting, as
-// scene/fis) is rendered R
+// scene/fis; a last suffix /noguide turns off the constant environment's
+// guide, as scene/noguide or scene/fis/noguide) is rendered R
 // times, the variants interleaved round by round so that they share the
-// machine's changing speed (round k renders with seed K + k + 1). For each: render seconds, relMSE against a
+// machine's changing speed (round k renders with seed K + k + 1). For each: seconds (the device's builds and the passes), relMSE against a
 // converged reference, efficiency = 1 / (relMSE × seconds); also the
 // process's CPU seconds (user + system, all threads: less sensitive than the
 // wall clock to other work on a shared machine) and the efficiency by them. The reference
@@ -40,6 +41,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
@@ -52,6 +54,7 @@
 #include "luz/integrator/path.h"
 #include "luz/io/error.h"
 #include "luz/io/load.h"
+#include "luz/light/env_guide_build.h"
 #include "reference.h"
 
 using namespace luz;
@@ -159,10 +162,16 @@ void profile(const Args& a, Scene s, const Reference& ref) {
   std::vector<double> s1(px * kLengths * 3), s2(px * kLengths * 3), t1(px * 3), t2(px * 3);
   EmbreeScene embree(s);
   const EmbreeTracer tracer = embree.tracer();
-  const SceneView view = s.view();
+  SceneView view = s.view();
   const SamplerDesc desc = make_sampler_desc(s.settings.sampler, s.settings.spp, s.settings.seed);
   tbb::enumerable_thread_specific<Counts> per_thread;
   tbb::task_arena arena(a.threads > 0 ? a.threads : tbb::task_arena::automatic);
+  // The constant environment's guide, as the CPU device builds it.
+  EnvGuideData guide;
+  if (wants_env_guide(view, s.settings.env_guide)) {
+    arena.execute([&] { guide = build_env_guide(view, tracer, env_guide_options(uint64_t(px) * desc.spp)); });
+    view.lights.data.guide = guide.view;
+  }
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
       Probe::counts = &per_thread.local();
@@ -354,6 +363,7 @@ int main(int argc, char** argv) {
       SamplerType sampler;
       int rr_depth;
       bool fis;  // filter sampling instead of the default splatting
+      bool guide;  // the constant environment's guide (the default)
       std::vector<double> seconds, cpu, rel;
     };
     std::vector<Variant> variants;
@@ -362,6 +372,8 @@ int main(int argc, char** argv) {
       const std::string item = a.samplers.substr(at, comma - at);
       at = comma + 1;
       std::string base_item = item;
+      const bool guide = !(base_item.size() > 8 && base_item.compare(base_item.size() - 8, 8, "/noguide") == 0);
+      if (!guide) base_item.resize(base_item.size() - 8);
       const bool fis = base_item.size() > 4 && base_item.compare(base_item.size() - 4, 4, "/fis") == 0;
       if (fis) base_item.resize(base_item.size() - 4);
       const size_t slash = base_item.find("/rr");
@@ -375,7 +387,8 @@ int main(int argc, char** argv) {
       std::string name = v == "scene" ? std::string("scene's (") + sampler_name(own) + ")" : v;
       if (slash != std::string::npos) name += ", rr_depth " + std::to_string(rr);
       if (fis) name += ", filter sampling";
-      variants.push_back({name, t, rr, fis, {}, {}, {}});
+      if (!guide) name += ", no env guide";
+      variants.push_back({name, t, rr, fis, guide, {}, {}, {}});
     }
     for (int round = 0; round < a.rounds; ++round)
       for (Variant& v : variants) {
@@ -387,7 +400,12 @@ int main(int argc, char** argv) {
         double t = 0;
         const double cpu0 = cpu_seconds();
         if (v.fis) s.settings.reconstruction = Reconstruction::FilterSampling;
+        s.settings.env_guide = v.guide;
+        // The passes and what the device builds first (the environment's
+        // guide: part of a variant's cost; Embree's build: the same for all).
+        const auto t0 = std::chrono::steady_clock::now();
         const std::vector<float> img = render(s, a.threads, t).mean();
+        t = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         v.cpu.push_back(cpu_seconds() - cpu0);
         v.seconds.push_back(t);
         v.rel.push_back(rel_mse(img, ref.mean, keep) - ref.noise);

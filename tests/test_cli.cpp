@@ -353,6 +353,7 @@ TEST_F(Cli, BadFlags) {
   expect_bad({"render", "scene.xml", "--integrator", "bdpt"}, "", 0, "--integrator");
   expect_bad({"render", "scene.xml", "--light-sampler", "uniform"}, "", 0, "--light-sampler");
   expect_bad({"render", "scene.xml", "--reconstruction", "gather"}, "", 0, "--reconstruction");
+  expect_bad({"render", "scene.xml", "--env-guide", "yes"}, "", 0, "--env-guide");
   expect_bad({"render", "scene.xml", "--max-depth", "0"}, "", 0, "--max-depth");
   expect_bad({"render", "scene.xml", "--threads", "-1"}, "", 0, "--threads");
   expect_bad({"render", "scene.xml", "--bogus"}, "", 0, "--bogus");
@@ -647,7 +648,8 @@ TEST_F(Cli, FlagsOverrideTheScene) {
       expect_sane(luz::read_pfm((dir / "out.pfm").string()), 8, 6, std::string(integrator) != "bsdf");
     }
   for (const auto& [flag, value] : std::vector<std::pair<std::string, std::string>>{
-           {"--light-sampler", "bvh"}, {"--light-sampler", "power"}, {"--reconstruction", "splat"}, {"--reconstruction", "filter"}}) {
+           {"--light-sampler", "bvh"}, {"--light-sampler", "power"}, {"--reconstruction", "splat"}, {"--reconstruction", "filter"},
+           {"--env-guide", "on"}, {"--env-guide", "off"}}) {
     SCOPED_TRACE(flag + " " + value);
     Result r = run({"render", "scene.xml", "-o", "out.pfm", "--threads", "1", "--spp", "1", flag, value});
     ASSERT_TRUE(r.exited);

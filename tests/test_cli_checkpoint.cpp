@@ -139,6 +139,8 @@ TEST_F(Resume, ChangedSceneOrSettingsAndBadCheckpointsAreRefused) {
   refused({"render", "--resume", "c.ckpt", "--seed", "3"}, "cannot resume: seed: the checkpoint has 0, this render 3");
   refused({"render", "--resume", "c.ckpt", "--reconstruction", "filter"},
           "cannot resume: reconstruction: the checkpoint has splat, this render filter sampling");
+  refused({"render", "--resume", "c.ckpt", "--env-guide", "off"},
+          "cannot resume: environment guide: the checkpoint has on, this render off");
   refused({"render", "--resume", "c.ckpt", "-D", "res=33"}, "cannot resume: image size: the checkpoint has 32x32, this render 33x33");
   refused({"render", "box.xml", "--resume", "c.ckpt"}, "give no scene file with it");
   // The light made brighter in the scene file.

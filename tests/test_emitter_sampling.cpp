@@ -22,7 +22,7 @@ using chi2::D3;
 namespace {
 
 constexpr int kChi2Tests = 3 /* triangles */ + 3 /* spheres from outside */ + 2 /* from inside */ + 1 /* parallelogram */ +
-                           2 /* constant environment */ + 2 /* two-sided, from behind */;
+                           3 /* constant environment */ + 2 /* two-sided, from behind */;
 const double kThreshold = chi2::sidak(chi2::kAlpha, kChi2Tests);
 constexpr uint64_t kSamples = 200000;
 // Relative agreement of the code's float pdfs with the double reference: a
@@ -564,29 +564,50 @@ namespace {
 // hemisphere (LightSampleContext::hemisphere): directions by the cosine about
 // its pole (χ² over the whole sphere, the lower half expecting nothing), each
 // sample's pdf equal to pdf_li, and pdf_li integrating to one; without a
-// hemisphere, uniform over the sphere.
+// hemisphere, uniform over the sphere; with a guide (light/env_guide.h: a
+// distribution over bins of the world sphere, some empty, some below the
+// pole's horizon), the mixture of the guide and the cosine.
 TEST(EmitterSampling, ConstantEnvironmentOverTheHemisphere) {
   ConstantLight sky;
   sky.radiance = {1.f, 1.f, 1.f};
   const Light l(sky);
   const D3 pole = chi2::normalized({0.3, -0.5, 0.8});
   const LightSampleContext ctx{{0.1f, 0.2f, 0.3f}, chi2::to_vec3(pole), {}, chi2::to_vec3(pole)};
-  for (const bool hemisphere : {true, false}) {
+  // One grid cell; every side's region the one distribution.
+  std::vector<int32_t> regions(EnvGuide::kSides, 0);
+  std::vector<float> cdf(EnvGuide::kBins);
+  double total = 0;
+  for (int b = 0; b < EnvGuide::kBins; ++b) total += b % 7 == 0 ? 5 : b % 3 == 0 ? 0 : 1;
+  for (int b = 0, acc = 0; b < EnvGuide::kBins; ++b) {
+    acc += b % 7 == 0 ? 5 : b % 3 == 0 ? 0 : 1;
+    cdf[size_t(b)] = b == EnvGuide::kBins - 1 ? 1.f : float(acc / total);
+  }
+  LightData guided;
+  guided.guide.regions = regions.data();
+  guided.guide.cdf = cdf.data();
+  guided.guide.lo = {-10.f, -10.f, -10.f};
+  guided.guide.inv_cell = {0.05f, 0.05f, 0.05f};
+  guided.guide.nx = guided.guide.ny = guided.guide.nz = 1;
+  guided.guide.mix = 0.85f;
+  ASSERT_EQ(guided.guide.find(ctx.p, ctx.hemisphere), 0);
+  for (const int kind : {0, 1, 2}) {
+    const bool hemisphere = kind != 1;
     const LightSampleContext c = hemisphere ? ctx : LightSampleContext{ctx.p, ctx.n, ctx.ns};
+    const LightData data = kind == 2 ? guided : LightData(nullptr);
     uint64_t mismatched = 0;
     auto sample = [&](uint64_t i, Vec3& w) {
-      const LightSample ls = sample_li(l, c, chi2::rand2(40, i, 0), nullptr);
+      const LightSample ls = sample_li(l, c, chi2::rand2(40, i, 0), data);
       if (!(ls.pdf > 0.f)) return false;
-      mismatched += std::fabs(ls.pdf - pdf_li(l, c, ls.wi, {}, nullptr)) > 1e-4f * ls.pdf;
+      mismatched += std::fabs(ls.pdf - pdf_li(l, c, ls.wi, {}, data)) > 1e-4f * ls.pdf;
       w = ls.wi;
       return true;
     };
-    auto pdf = [&](D3 w) { return double(pdf_li(l, c, chi2::to_vec3(w), {}, nullptr)); };
+    auto pdf = [&](D3 w) { return double(pdf_li(l, c, chi2::to_vec3(w), {}, data)); };
     chi2::SphereGrid g;
     g.axis = pole;
     g.total_mass = 1.0;
     const chi2::Outcome o = chi2::run_sphere(g, kSamples, sample, pdf);
-    const char* what = hemisphere ? "constant, cosine about the pole" : "constant, uniform";
+    const char* what = kind == 2 ? "constant, guide and cosine" : hemisphere ? "constant, cosine about the pole" : "constant, uniform";
     std::printf("%-40s %s\n", what, o.result.summary().c_str());
     EXPECT_TRUE(o.result.passes(kThreshold)) << what << ": " << o.describe(kThreshold);
     EXPECT_EQ(mismatched, 0u) << what;

@@ -92,7 +92,7 @@ struct RenderOptions {
   std::vector<std::string> outs;
   int spp = 0, threads = 0, max_depth = 0;
   long long seed = -1;
-  std::string sampler, integrator, light_sampler, reconstruction, device = "cpu";
+  std::string sampler, integrator, light_sampler, reconstruction, env_guide, device = "cpu";
   double time_limit = 0, scale = 0;
   std::string res;
   std::vector<std::string> defines, search;
@@ -124,6 +124,7 @@ struct RenderOptions {
     put("integrator", integrator);
     put("light-sampler", light_sampler);
     put("reconstruction", reconstruction);
+    put("env-guide", env_guide);
     put("device", device);
     put("res", res);
     put("scale", exact(scale));
@@ -157,6 +158,7 @@ struct RenderOptions {
       else if (k == "integrator") o.integrator = v;
       else if (k == "light-sampler") o.light_sampler = v;
       else if (k == "reconstruction") o.reconstruction = v;
+      else if (k == "env-guide") o.env_guide = v;
       else if (k == "device") o.device = v;
       else if (k == "res") o.res = v;
       else if (k == "scale") num(k, v, o.scale);
@@ -280,6 +282,7 @@ void apply_flags(luz::RenderSettings& s, const RenderOptions& o, std::vector<std
   else if (o.light_sampler == "power") s.light_sampler = luz::LightSamplerType::Power;
   if (o.reconstruction == "splat") s.reconstruction = luz::Reconstruction::Splat;
   else if (o.reconstruction == "filter") s.reconstruction = luz::Reconstruction::FilterSampling;
+  if (!o.env_guide.empty()) s.env_guide = o.env_guide == "on";
   if (o.spp > 0) s.spp = uint32_t(o.spp);
   if (o.seed >= 0) s.seed = uint64_t(o.seed);
   if (o.max_depth != 0) s.integrator.max_depth = o.max_depth;
@@ -410,6 +413,7 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
     keep("--integrator", o.integrator, was.integrator);
     keep("--light-sampler", o.light_sampler, was.light_sampler);
     keep("--reconstruction", o.reconstruction, was.reconstruction);
+    keep("--env-guide", o.env_guide, was.env_guide);
     keep("--device", o.device, was.device);
     keep("--res", o.res, was.res);
     keep("--scale", o.scale, was.scale);
@@ -703,6 +707,10 @@ int run(int argc, char** argv, luz::MpiJob* job) {
                  "reaches; less noise) or filter (as pbrt-v4: filter importance sampling, each sample in one pixel, "
                  "pixels' noise independent); the same for the box filter")
       ->check(CLI::IsMember({"splat", "filter"}));
+  rc->add_option("--env-guide", o.env_guide,
+                 "a constant environment's light samples aimed where the sky is seen from each region (default on; "
+                 "traced before the render), or off: over each point's hemisphere")
+      ->check(CLI::IsMember({"on", "off"}));
   rc->add_option("--device", o.device, "where to render: cpu (default), cuda (an NVIDIA GPU), auto (cuda if usable)")
       ->check(CLI::IsMember({"cpu", "cuda", "auto"}));
   rc->add_option("--res", o.res, "render at WIDTHxHEIGHT instead of the scene's size (the field of view kept along the scene's axis)");
@@ -774,7 +782,7 @@ int run(int argc, char** argv, luz::MpiJob* job) {
     }
     std::set<std::string> given;
     for (const char* flag : {"scene", "-o", "--spp", "--seed", "--max-depth", "--sampler", "--integrator",
-                             "--light-sampler", "--reconstruction", "--device", "--res", "--scale", "-D", "-a", "--checkpoint",
+                             "--light-sampler", "--reconstruction", "--env-guide", "--device", "--res", "--scale", "-D", "-a", "--checkpoint",
                              "--checkpoint-every", "--aov", "--camera"})
       if (rc->get_option(flag)->count() > 0) given.insert(flag);
     if (!resume.empty() && given.count("scene"))

@@ -3,6 +3,8 @@
 // (LightSampleContext::hemisphere), directions are sampled by the cosine
 // about its pole, as a diffuse surface weighs them; else uniformly over the
 // sphere. Half of uniform sphere samples would fall where no light arrives.
+// Where the render built a guide (LightData::guide, env_guide.h: indoors, the
+// directions the sky is actually seen in), a mixture of it and the cosine.
 #pragma once
 
 #include <algorithm>
@@ -17,23 +19,44 @@ struct ConstantLight {
   static constexpr bool kDelta = false, kEnvironment = true;
   Color radiance;
 
-  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const LightData&) const {
+  LUZ_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const LightData& data) const {
     LightSample ls;
+    ls.dist = kInfinity;
+    ls.radiance = radiance;
     if (dot(ctx.hemisphere, ctx.hemisphere) == 0.f) {
       ls.wi = square_to_uniform_sphere(u);
       ls.pdf = uniform_sphere_pdf();
-    } else {
-      const Vec3 local = square_to_cosine_hemisphere(u);
-      ls.wi = Frame::from_normal(ctx.hemisphere).to_world(local);
-      ls.pdf = cosine_hemisphere_pdf(local);
+      return ls;
     }
-    ls.dist = kInfinity;
-    ls.radiance = radiance;
+    const Frame frame = Frame::from_normal(ctx.hemisphere);
+    const int d = data.guide.find(ctx.p, ctx.hemisphere);
+    if (d < 0) {
+      const Vec3 local = square_to_cosine_hemisphere(u);
+      ls.wi = frame.to_world(local);
+      ls.pdf = cosine_hemisphere_pdf(local);
+      return ls;
+    }
+    // The guide's mixture: u.x picks the strategy, then is reused within it.
+    const float m = data.guide.mix;
+    float p_guide;
+    if (u.x < m) {
+      u.x = min(u.x / m, kOneMinusEpsilon);
+      ls.wi = data.guide.sample(d, u, p_guide);
+    } else {
+      u.x = min((u.x - m) / (1.f - m), kOneMinusEpsilon);
+      ls.wi = frame.to_world(square_to_cosine_hemisphere(u));
+      p_guide = data.guide.pdf(d, ls.wi);
+    }
+    ls.pdf = m * p_guide + (1.f - m) * fmaxf(dot(ls.wi, ctx.hemisphere), 0.f) * kInvPi;
     return ls;
   }
-  LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit&, const LightData&) const {
+  LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit&, const LightData& data) const {
     if (dot(ctx.hemisphere, ctx.hemisphere) == 0.f) return uniform_sphere_pdf();
-    return fmaxf(dot(wi, ctx.hemisphere), 0.f) * kInvPi;
+    const float p_cos = fmaxf(dot(wi, ctx.hemisphere), 0.f) * kInvPi;
+    const int d = data.guide.find(ctx.p, ctx.hemisphere);
+    if (d < 0) return p_cos;
+    const float m = data.guide.mix;
+    return m * data.guide.pdf(d, wi) + (1.f - m) * p_cos;
   }
   // Emitted rays: a uniform direction, then through the scene's disk.
   LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData& data, Vec3 scene_center,

@@ -1,6 +1,7 @@
 // What every light answers with, and what it is asked from.
 #pragma once
 
+#include "luz/light/env_guide.h"
 #include "luz/math/vec.h"
 #include "luz/texture/texture.h"
 
@@ -18,11 +19,13 @@ struct LightSampleContext {
 };
 
 // What lights read besides their own fields: the lights' shared float array
-// (images and distributions, by offset) and the scene's textures (textured
-// emission). Made from a bare float array where no light is textured.
+// (images and distributions, by offset), the scene's textures (textured
+// emission) and the constant environment's guide. Made from a bare float
+// array where no light is textured.
 struct LightData {
   const float* floats = nullptr;
   TextureView textures;
+  EnvGuide guide;
   LightData() = default;
   LUZ_INLINE LightData(const float* f) : floats(f) {}
 };

@@ -201,6 +201,7 @@ RenderFields render_fields(const Scene& scene, RenderDevice device) {
   f.emplace_back("pixel filter", filter_name(s.filter));
   f.emplace_back("reconstruction", splats(s.reconstruction, s.filter) ? "splat" : "filter sampling");
   f.emplace_back("light sampler", light_sampler_name(s.light_sampler));
+  f.emplace_back("environment guide", s.env_guide ? "on" : "off");
   f.emplace_back("device", device == RenderDevice::Cuda ? "cuda" : "cpu");
   Hasher camera;
   camera.value(c);

@@ -26,7 +26,7 @@ namespace luz {
 enum class RenderDevice { Cpu, Cuda };
 
 struct RenderStats {
-  double seconds = 0;  // of the passes (scene upload, Embree and BVH builds excluded)
+  double seconds = 0;  // of the passes (scene upload, Embree and BVH builds, the environment guide excluded)
   uint64_t samples = 0;    // pixel-samples in the film from this render (whole passes)
   uint64_t rays = 0;       // every ray traced, abandoned passes included
   uint64_t discarded = 0;  // non-finite samples among `samples`, left out of the film

@@ -26,6 +26,10 @@ struct RenderSettings {
   Reconstruction reconstruction = Reconstruction::Splat;
   // Power by default: it measured the more efficient on bench/manylight.
   LightSamplerType light_sampler = LightSamplerType::Power;
+  // A constant environment sampled where it is seen from (light/env_guide.h):
+  // 2.3x less noise indoors under a sky (bench/RESULTS.md), nothing changed
+  // where there is no constant environment.
+  bool env_guide = true;
   ExrFormat exr_format;  // how .exr outputs are written (Mitsuba's hdrfilm formats)
 };
 

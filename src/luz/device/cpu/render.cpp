@@ -12,6 +12,7 @@
 #include "luz/device/progress.h"
 #include "luz/film/splat.h"
 #include "luz/integrator/path.h"
+#include "luz/light/env_guide_build.h"
 
 namespace luz {
 
@@ -57,6 +58,7 @@ struct CpuDevice::Impl {
 
   bool splat;
   int reach;
+  EnvGuideData guide;
 
   Impl(const Scene& scene, int threads)
       : view(scene.view()),
@@ -66,7 +68,14 @@ struct CpuDevice::Impl {
         desc(make_sampler_desc(rs.sampler, rs.spp, rs.seed)),
         arena(threads > 0 ? threads : tbb::task_arena::automatic),
         splat(splats(rs.reconstruction, rs.filter)),
-        reach(splat ? filter_reach(rs.filter) : 0) {}
+        reach(splat ? filter_reach(rs.filter) : 0) {
+    // The environment's guide: its pilot traced here, once per device.
+    if (wants_env_guide(view, rs.env_guide)) {
+      const EnvGuideOptions o = env_guide_options(uint64_t(view.camera.width) * uint64_t(view.camera.height) * rs.spp);
+      arena.execute([&] { guide = build_env_guide(view, tracer, o); });
+      view.lights.data.guide = guide.view;
+    }
+  }
 
   // The tile size for a pass of n samples over `rect`, for `want` work items.
   int tile(const PixelRect& rect, uint64_t want, uint32_t n) const {

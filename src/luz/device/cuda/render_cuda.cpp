@@ -26,6 +26,7 @@
 #include "luz/accel/bvh_build.h"
 #include "luz/device/cuda/launch.h"
 #include "luz/device/progress.h"
+#include "luz/light/env_guide_build.h"
 #include "luz/io/error.h"
 
 #ifndef LUZ_CUDA_ARCHITECTURES
@@ -312,6 +313,10 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
 
   // The BVH, built on the host (binned SAH, TBB), then everything uploaded.
   const Bvh bvh = build_bvh(host);
+  // The environment's guide, traced on the host through the same BVH.
+  EnvGuideData guide;
+  if (wants_env_guide(host, rs.env_guide))
+    guide = build_env_guide(host, make_bvh_tracer(bvh, host), env_guide_options(uint64_t(pixels) * desc.spp));
   Uploader up;
   SceneView dev = host;  // counts, camera, bounds, environment index as they are
   dev.positions = up.upload(scene.positions, "vertex positions");
@@ -338,6 +343,11 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.lights.sampler.bvh.infinite = up.upload(scene.light_bvh.infinite, "the infinite lights");
   dev.lights.data.floats = up.upload(scene.light_data, "environment maps");
   dev.lights.data.textures = dev.textures;
+  if (guide.view.regions) {
+    dev.lights.data.guide = guide.view;  // its grid; its arrays on the device
+    dev.lights.data.guide.regions = up.upload(guide.regions, "the environment guide's regions");
+    dev.lights.data.guide.cdf = up.upload(guide.cdf, "the environment guide's distributions");
+  }
   const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres, dev.opacity(), dev.instances);
 
   const uint32_t per_pass = options.samples_per_pass
