@@ -227,6 +227,8 @@ int main(int argc, char** argv) {
     //    and Luz's BVH on the GPU tracing the recorded rays. One "G|" row:
     //    GPU and CPU figures of this run side by side.
     if (device == "cuda") {
+      // The wavefront has filter sampling only (the megakernel splats as the CPU).
+      if (gpu_wavefront) scene.settings.reconstruction = luz::Reconstruction::FilterSampling;
       luz::RenderStats gstats;
       double gbest = 1e30;
       for (int k = 0; k < repeat; ++k) {

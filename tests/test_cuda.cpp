@@ -7,7 +7,10 @@
 //    pass, double film). Checked against render_cpu: same random numbers, so
 //    the one-sample images match pixel for pixel but for the rare ray the two
 //    tracers round differently; independent seeds agree within noise; K does
-//    not change the image beyond float rounding.
+//    not change the image beyond float rounding. Splatting's two kernels
+//    (render_square_pass, gather_pixel_pass) give the CPU's splatted samples;
+//    the constant environment's guide, built through Luz's BVH, agrees with
+//    the CPU's within noise.
 //  * CudaDevice (needs a GPU; otherwise SKIPPED with the reason): the same
 //    checks on render_cuda's films, plus ray and sample counts.
 //  * CudaNoDevice / CliDevice: without a GPU render_cuda throws a one-line
@@ -50,6 +53,7 @@
 #include "cli_helpers.h"
 #include "geometry_helpers.h"
 #include "luz/accel/bvh_build.h"
+#include "luz/light/env_guide_build.h"
 #include "luz/accel/embree_tracer.h"
 #include "luz/device/cpu/render.h"
 #include "luz/device/cuda/batch.h"
@@ -69,6 +73,17 @@ constexpr double kFamilyAlpha = 1e-3;
 constexpr int kBlock = 8;
 const std::string kCornell = LUZ_SOURCE_DIR "/scenes/cornell-box.xml";
 
+// Sponza's atrium under a constant sky (bench/scenes): the environment's
+// guide (light/env_guide.h) is built and read.
+Scene sponza_sky(int res, uint32_t spp, uint64_t seed) {
+  Scene s = load_scene(LUZ_SOURCE_DIR "/bench/scenes/sponza-inside.xml", {{"res", std::to_string(res)}, {"max_depth", "6"}});
+  s.settings.sampler = SamplerType::Independent;
+  s.settings.spp = spp;
+  s.settings.seed = seed;
+  luz_test::independent_pixels(s);
+  return s;
+}
+
 Scene cornell(int res, uint32_t spp, uint64_t seed) {
   Scene s = load_scene(kCornell, {{"res", std::to_string(res)}});
   // Independent samples: the per-pixel sample variance is then an unbiased
@@ -76,9 +91,18 @@ Scene cornell(int res, uint32_t spp, uint64_t seed) {
   s.settings.sampler = SamplerType::Independent;
   s.settings.spp = spp;
   s.settings.seed = seed;
-  // The CUDA device has filter sampling only; the block tests want
-  // independent pixels too.
+  // The block tests want independent pixels: filter sampling (splatting's
+  // own tests set it back).
   luz_test::independent_pixels(s);
+  return s;
+}
+
+// The Cornell box splatted (film/splat.h): its tent filter's samples shared
+// between neighbouring pixels.
+Scene cornell_splat(int res, uint32_t spp, uint64_t seed) {
+  Scene s = cornell(res, spp, seed);
+  s.settings.reconstruction = Reconstruction::Splat;
+  EXPECT_TRUE(splats(s.settings.reconstruction, s.settings.filter));
   return s;
 }
 
@@ -254,9 +278,22 @@ Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_ou
   const Camera& cam = view.camera;
   const size_t pixels = size_t(cam.width) * cam.height;
   PassParams p = host_pass_params(scene, view, bvh);
+  // The environment's guide, as render_cuda builds it.
+  EnvGuideData guide;
+  if (wants_env_guide(view, scene.settings.env_guide)) {
+    guide = build_env_guide(view, p.tracer, env_guide_options(uint64_t(pixels) * p.sampler.spp));
+    p.scene.lights.data.guide = guide.view;
+  }
   p.threads_per_pixel = threads;
-  std::vector<float> sum(3 * pixels * threads), sum_sq(3 * pixels * threads);
-  std::vector<uint32_t> count(pixels * threads);
+  // Splatting: T threads per square, then one per pixel for the gather.
+  const bool splat = splats(scene.settings.reconstruction, scene.settings.filter);
+  p.reach = splat ? filter_reach(scene.settings.filter) : 0;
+  const int cw = cam.width + 2 * p.reach, ch = cam.height + 2 * p.reach;
+  std::vector<Color> squares(splat ? size_t(cw) * ch * per_pass : 0);
+  p.squares = squares.data();
+  const uint32_t slices = splat ? 1 : threads;
+  std::vector<float> sum(3 * pixels * slices), sum_sq(3 * pixels * slices);
+  std::vector<uint32_t> count(pixels * slices);
   p.out = {sum.data(), sum_sq.data(), count.data()};
   Film film(cam.width, cam.height);
   std::atomic<uint64_t> rays{0};
@@ -267,14 +304,29 @@ Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_ou
     // Poison the outputs: the pass must overwrite every pixel.
     std::fill(sum.begin(), sum.end(), NAN);
     std::fill(count.begin(), count.end(), 0xdeadbeefu);
-    tbb::parallel_for(tbb::blocked_range<int>(0, cam.height), [&](const tbb::blocked_range<int>& r) {
-      uint64_t n = 0;
-      for (int y = r.begin(); y != r.end(); ++y)
-        for (int x = 0; x < cam.width; ++x)
-          for (uint32_t t = 0; t < threads; ++t) n += render_pixel_pass(p, uint32_t(x), uint32_t(y), t);
-      rays += n;
-    });
-    discarded += accumulate_pass(film, sum.data(), sum_sq.data(), count.data(), p.num_samples, 0, pixels, threads);
+    if (splat) {
+      std::fill(squares.begin(), squares.end(), Color{NAN, NAN, NAN});
+      tbb::parallel_for(tbb::blocked_range<int>(0, ch), [&](const tbb::blocked_range<int>& r) {
+        uint64_t n = 0;
+        for (int y = r.begin(); y != r.end(); ++y)
+          for (int x = 0; x < cw; ++x)
+            for (uint32_t t = 0; t < threads; ++t) n += render_square_pass(p, uint32_t(x), uint32_t(y), t);
+        rays += n;
+      });
+      tbb::parallel_for(tbb::blocked_range<int>(0, cam.height), [&](const tbb::blocked_range<int>& r) {
+        for (int y = r.begin(); y != r.end(); ++y)
+          for (int x = 0; x < cam.width; ++x) gather_pixel_pass(p, uint32_t(x), uint32_t(y));
+      });
+    } else {
+      tbb::parallel_for(tbb::blocked_range<int>(0, cam.height), [&](const tbb::blocked_range<int>& r) {
+        uint64_t n = 0;
+        for (int y = r.begin(); y != r.end(); ++y)
+          for (int x = 0; x < cam.width; ++x)
+            for (uint32_t t = 0; t < threads; ++t) n += render_pixel_pass(p, uint32_t(x), uint32_t(y), t);
+        rays += n;
+      });
+    }
+    discarded += accumulate_pass(film, sum.data(), sum_sq.data(), count.data(), p.num_samples, 0, pixels, slices);
   }
   if (stats_out) {
     stats_out->samples = uint64_t(pixels) * p.sampler.spp;
@@ -731,6 +783,37 @@ TEST(CudaPassOnHost, PointSpotDirectionalAndEnvmapMatchCpu) {
   expect_same_samples(passes_on_host(s, 1), cpu(s), 2e-3, "host passes vs CPU, delta lights and envmap, 1 spp");
 }
 
+// Splatting: the squares' samples and the gather are the CPU's, so one
+// splatted sample per pixel matches it but for pixels a diverged path reaches
+// (each square's sample enters the 3 × 3 pixels around it: up to 9x the
+// filter-sampling fraction); passes and threads per square change only the
+// float grouping of the sums.
+TEST(CudaPassOnHost, SplattedMatchesCpu) {
+  Scene s = cornell_splat(48, 1, 23);
+  expect_same_samples(passes_on_host(s, 1), cpu(s), 2e-2, "host passes vs CPU, splatted, 1 spp");
+  Scene m = cornell_splat(24, 20, 24);
+  Film one = passes_on_host(m, 1, nullptr, 1);
+  for (auto [per_pass, threads] : {std::pair{7u, 1u}, std::pair{7u, 3u}, std::pair{20u, 7u}}) {
+    Film f = passes_on_host(m, per_pass, nullptr, threads);
+    EXPECT_EQ(f.count, one.count) << per_pass << " " << threads;
+    for (size_t i = 0; i < one.sum.size(); ++i)
+      ASSERT_NEAR(f.sum[i], one.sum[i], 20 * 6e-8 * std::max(1.0, one.sum[i])) << per_pass << " " << threads << " " << i;
+  }
+}
+
+// A constant sky seen through an opening: the environment's guide, built
+// through Luz's BVH, agrees with the CPU's (built through Embree) within noise.
+TEST(CudaPassOnHost, GuidedSkyAgreesWithCpu) {
+  Scene a = sponza_sky(32, 64, 61), b = sponza_sky(32, 64, 62);
+  {  // passes_on_host's guide, through Luz's BVH, has distributions
+    const SceneView view = a.view();
+    const Bvh bvh = build_bvh(view);
+    const EnvGuideData g = build_env_guide(view, make_bvh_tracer(bvh, view), env_guide_options(32 * 32 * 64));
+    EXPECT_GT(g.distributions(), 10u);
+  }
+  expect_agree(passes_on_host(a, 16), cpu(b), "host passes vs CPU, guided sky, 64 spp, independent seeds");
+}
+
 // Textures and texture coordinates reach the pass logic as they reach the
 // CPU renderer: the same samples with the same seed, and agreement within
 // noise with independent seeds.
@@ -929,6 +1012,26 @@ TEST(CudaDevice, InstancedSceneMatchesCpu) {
 TEST(CudaDevice, PointSpotDirectionalAndEnvmapMatchCpu) {
   REQUIRE_GPU();
   gpu_matches_cpu(cornell_lights, 96, 128, 20, "delta lights and envmap");
+}
+
+// Splatting on the GPU: the same samples as the CPU's (one per pixel), and
+// passes that change only rounding.
+TEST(CudaDevice, SplattedMatchesCpu) {
+  REQUIRE_GPU();
+  Scene s = cornell_splat(128, 1, 25);
+  expect_same_samples(gpu(s), cpu(s), 5e-2, "GPU vs CPU, splatted, 1 spp, same seed");
+  Scene m = cornell_splat(64, 20, 26);
+  Film one = gpu(m, 1), many = gpu(m, 7);
+  EXPECT_EQ(many.count, one.count);
+  for (size_t i = 0; i < one.sum.size(); ++i)
+    ASSERT_NEAR(many.sum[i], one.sum[i], 7 * 6e-8 * std::max(1.0, one.sum[i])) << i;
+}
+
+// The environment's guide, built on the host through the BVH and uploaded.
+TEST(CudaDevice, GuidedSkyAgreesWithCpu) {
+  REQUIRE_GPU();
+  Scene a = sponza_sky(64, 128, 63), b = sponza_sky(64, 128, 64);
+  expect_agree(gpu(a), cpu(b), "GPU vs CPU, guided sky, independent seeds");
 }
 
 // Every BSDF model's scene on the GPU against the CPU renderer, within noise.

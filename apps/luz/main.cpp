@@ -467,12 +467,6 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
   resize(scene, o);
   luz::RenderSettings& s = scene.settings;
   apply_flags(s, o, scene.warnings);
-  if (use_cuda && luz::splats(s.reconstruction, s.filter)) {
-    if (o.reconstruction == "splat") throw luz::InputError("--reconstruction splat: the CUDA device has filter sampling only");
-    s.reconstruction = luz::Reconstruction::FilterSampling;
-    scene.warnings.push_back(std::string("luz: warning: --device cuda: the ") + luz::filter_name(s.filter) +
-                             " filter is applied by filter sampling (splatting is CPU-only): the same image, noisier");
-  }
   check_memory(scene);
   const luz::RenderDevice device = use_cuda ? luz::RenderDevice::Cuda : luz::RenderDevice::Cpu;
   const luz::RenderFields fields = luz::render_fields(scene, device);

@@ -102,8 +102,6 @@ void check_request(const Scene& scene, const RenderRequest& req) {
     throw std::invalid_argument("render: the start film is " + std::to_string(req.start->width) + "x" +
                                 std::to_string(req.start->height) + ", the camera " + std::to_string(cam.width) +
                                 "x" + std::to_string(cam.height));
-  if (req.device == RenderDevice::Cuda && splats(scene.settings.reconstruction, scene.settings.filter))
-    throw std::invalid_argument("render: the CUDA device has filter sampling only (Reconstruction::FilterSampling)");
 }
 
 RenderResult render(const Scene& scene, const RenderRequest& req) {

@@ -22,7 +22,7 @@ struct RenderSettings {
   IntegratorParams integrator;
   FilterKind filter = FilterKind::Box;
   // Splatting by default: 2-3x less variance per pixel than filter sampling
-  // for the tent and gaussian (bench/RESULTS.md); the CPU device only.
+  // for the tent and gaussian (bench/RESULTS.md).
   Reconstruction reconstruction = Reconstruction::Splat;
   // Power by default: it measured the more efficient on bench/manylight.
   LightSamplerType light_sampler = LightSamplerType::Power;

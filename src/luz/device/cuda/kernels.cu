@@ -1,4 +1,5 @@
-// The CUDA megakernel: T threads per pixel (pass.h) run render_pixel_pass,
+// The CUDA megakernel: T threads per pixel (pass.h) run render_pixel_pass
+// (or, splatting, T per square render_square_pass, then gather_pixel_pass),
 // i.e. the shared path tracer (integrator/path.h) over Luz's own BVH
 // (accel/bvh.h, BvhTracer: Aila-Laine stack traversal; its intersect() is
 // OptiX's closest-hit query, occluded() the any-hit shadow query). Everything
@@ -22,6 +23,35 @@ cudaError_t launch_render_pass(const PassParams& params, unsigned long long* ray
   const dim3 grid((unsigned(params.scene.camera.width) + kBlockX - 1) / kBlockX,
                   (unsigned(params.scene.camera.height) + kBlockY - 1) / kBlockY, params.threads_per_pixel);
   render_pass_kernel<<<grid, block, 0, stream>>>(params, rays);
+  return cudaGetLastError();
+}
+
+// Splatting (pass.h): the squares of the bordered image, then every pixel's gather.
+__global__ void __launch_bounds__(kBlockX * kBlockY) render_squares_kernel(PassParams p, unsigned long long* rays) {
+  const uint32_t x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  const uint32_t cw = uint32_t(p.scene.camera.width + 2 * p.reach), ch = uint32_t(p.scene.camera.height + 2 * p.reach);
+  uint64_t n = 0;
+  if (x < cw && y < ch) n = render_square_pass(p, x, y, blockIdx.z);
+  for (int offset = 16; offset > 0; offset /= 2) n += __shfl_down_sync(0xffffffffu, n, offset);
+  if (((threadIdx.y * blockDim.x + threadIdx.x) & 31u) == 0 && n != 0) atomicAdd(rays, (unsigned long long)n);
+}
+
+__global__ void gather_pixels_kernel(PassParams p) {
+  const uint32_t x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x < uint32_t(p.scene.camera.width) && y < uint32_t(p.scene.camera.height)) gather_pixel_pass(p, x, y);
+}
+
+cudaError_t launch_splat_pass(const PassParams& params, unsigned long long* rays, cudaStream_t stream) {
+  const dim3 block(kBlockX, kBlockY);
+  const unsigned cw = unsigned(params.scene.camera.width + 2 * params.reach);
+  const unsigned ch = unsigned(params.scene.camera.height + 2 * params.reach);
+  render_squares_kernel<<<dim3((cw + kBlockX - 1) / kBlockX, (ch + kBlockY - 1) / kBlockY, params.threads_per_pixel),
+                          block, 0, stream>>>(params, rays);
+  const cudaError_t e = cudaGetLastError();
+  if (e != cudaSuccess) return e;
+  gather_pixels_kernel<<<dim3((unsigned(params.scene.camera.width) + kBlockX - 1) / kBlockX,
+                              (unsigned(params.scene.camera.height) + kBlockY - 1) / kBlockY),
+                         block, 0, stream>>>(params);
   return cudaGetLastError();
 }
 

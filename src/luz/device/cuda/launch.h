@@ -16,6 +16,9 @@ inline constexpr int kBlockX = 16, kBlockY = 8;  // 128 threads, four warps, per
 // Enqueues one pass on `stream`; `rays` (device) gains the pass's ray count.
 cudaError_t launch_render_pass(const PassParams& params, unsigned long long* rays, cudaStream_t stream);
 
+// Splatting's pass (pass.h): the squares' kernel, then the gather's, on `stream`.
+cudaError_t launch_splat_pass(const PassParams& params, unsigned long long* rays, cudaStream_t stream);
+
 // Attributes of the pass kernel; fails with cudaErrorNoKernelImageForDevice
 // (or cudaErrorInvalidDeviceFunction) when this build has no code for the
 // current device's architecture.

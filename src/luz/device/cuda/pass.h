@@ -21,6 +21,15 @@
 // any T, only the float grouping of their sums differs, and T is a function
 // of the image size and the pass length (default_threads_per_pixel), so a
 // render's film stays deterministic.
+//
+// Splatting (film/splat.h; PassParams::reach > 0): two kernels per pass.
+// render_square_pass renders the pass's samples of every square of the image
+// and of a border `reach` wide around it (T threads per square, as for
+// pixels) into PassParams::squares, each square's samples in index order;
+// gather_pixel_pass then forms each pixel's samples S_p,k from its
+// neighbours' and sums them as render_pixel_pass does, one thread per pixel
+// (one output slice). The samples are the CPU's (device/cpu splats the same
+// squares at the same offsets and gathers in the same order).
 #pragma once
 
 #include <cstddef>
@@ -28,6 +37,7 @@
 #include "luz/accel/bvh.h"
 #include "luz/film/film.h"
 #include "luz/film/filter.h"
+#include "luz/film/splat.h"
 #include "luz/integrator/path.h"
 
 namespace luz {
@@ -49,6 +59,11 @@ struct PassParams {
   uint32_t first_sample = 0, num_samples = 1;
   uint32_t threads_per_pixel = 1;  // T: the output holds T slices of `pixels` entries
   PassOutput out;
+  // Splatting: the filter's reach in pixels (0: filter sampling), and the
+  // squares' radiance, num_samples per square, squares in rows over the
+  // image and its border ((width + 2 reach) × (height + 2 reach)).
+  int reach = 0;
+  Color* squares = nullptr;
 };
 
 // One thread's float sums of its finite samples, and their count, written
@@ -95,6 +110,43 @@ LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t 
   }
   sums.write(p.out, size_t(t) * size_t(cam.width) * size_t(cam.height) + size_t(y) * size_t(cam.width) + x);
   return rays;
+}
+
+// Splatting, first kernel: thread t's share of square (sx, sy) of the
+// bordered image (image pixel (sx - reach, sy - reach)), as the CPU's
+// take_splat renders it. Returns the rays traced.
+LUZ_INLINE uint64_t render_square_pass(const PassParams& p, uint32_t sx, uint32_t sy, uint32_t t = 0) {
+  const Camera& cam = p.scene.camera;
+  const int x = int(sx) - p.reach, y = int(sy) - p.reach;
+  const size_t cw = size_t(cam.width) + 2 * size_t(p.reach);
+  const uint32_t T = p.threads_per_pixel;
+  const uint32_t k0 = uint32_t(uint64_t(p.num_samples) * t / T), k1 = uint32_t(uint64_t(p.num_samples) * (t + 1) / T);
+  Color* out = p.squares + (size_t(sy) * cw + sx) * p.num_samples;
+  Sampler sampler;
+  sampler.start(p.sampler, uint32_t(x), uint32_t(y), p.first_sample + k0);  // squares outside: wrapped, distinct
+  uint64_t rays = 0;
+  for (uint32_t k = k0; k < k1; ++k) {
+    sampler.set_sample(p.first_sample + k);
+    const Ray ray = camera_sample_at(cam, x, y, sampler, splat_offset(p.sampler, p.first_sample + k));
+    out[k] = path_li(p.scene, p.tracer, ray, sampler, p.integrator, rays);
+  }
+  return rays;
+}
+
+// Splatting, second kernel: pixel (x, y)'s samples of the pass, each from
+// the squares in reach, summed into output slice 0.
+LUZ_INLINE void gather_pixel_pass(const PassParams& p, uint32_t x, uint32_t y) {
+  const Camera& cam = p.scene.camera;
+  const int r = p.reach;
+  const size_t cw = size_t(cam.width) + 2 * size_t(r);
+  const size_t n = p.num_samples;
+  const Color* centre = p.squares + ((size_t(y) + r) * cw + (size_t(x) + r)) * n;
+  PassSums sums;
+  for (uint32_t k = 0; k < p.num_samples; ++k) {
+    const SplatWeights w = splat_weights(p.filter, r, splat_offset(p.sampler, p.first_sample + k));
+    sums.add(splat_gather(r, w, [&](int ox, int oy) { return centre[(ptrdiff_t(oy) * ptrdiff_t(cw) + ox) * ptrdiff_t(n) + k]; }));
+  }
+  sums.write(p.out, size_t(y) * size_t(cam.width) + x);
 }
 
 // Host: adds pixels [begin, end) of one pass (num_samples each, split over

@@ -20,14 +20,15 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
 #include "luz/accel/bvh_build.h"
 #include "luz/device/cuda/launch.h"
 #include "luz/device/progress.h"
-#include "luz/light/env_guide_build.h"
 #include "luz/io/error.h"
+#include "luz/light/env_guide_build.h"
 
 #ifndef LUZ_CUDA_ARCHITECTURES
 #define LUZ_CUDA_ARCHITECTURES "?"
@@ -39,6 +40,10 @@ CudaError::CudaError(Kind kind, const std::string& message)
     : std::runtime_error(InputError::one_line(message)), kind_(kind) {}
 
 namespace {
+
+// Splatting's squares of one pass on the device, at most (a pass takes
+// fewer samples where more would not fit).
+constexpr size_t kSplatBufferBytes = size_t(256) << 20;
 
 std::string describe(cudaError_t e) { return std::string(cudaGetErrorName(e)) + ": " + cudaGetErrorString(e); }
 
@@ -350,13 +355,24 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   }
   const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres, dev.opacity(), dev.instances);
 
-  const uint32_t per_pass = options.samples_per_pass
-                                ? std::max(1u, std::min(std::min(options.samples_per_pass, kMaxSamplesPerPass), range))
-                                : default_samples_per_pass(pixels, range);
+  // Splatting (pass.h): the squares of the image and its border take the
+  // samples, their radiance kept on the device for the pass's gather.
+  const bool splat = splats(rs.reconstruction, rs.filter);
+  if (splat && options.wavefront)
+    throw std::invalid_argument("render_cuda: the wavefront variant has filter sampling only (Reconstruction::FilterSampling)");
+  const int reach = splat ? filter_reach(rs.filter) : 0;
+  const size_t squares = (size_t(cam.width) + 2 * size_t(reach)) * (size_t(cam.height) + 2 * size_t(reach));
+  uint32_t per_pass = options.samples_per_pass
+                          ? std::max(1u, std::min(std::min(options.samples_per_pass, kMaxSamplesPerPass), range))
+                          : default_samples_per_pass(pixels, range);
+  if (splat)  // the squares' buffer within kSplatBufferBytes where a sample a pass allows
+    per_pass = uint32_t(std::clamp<size_t>(kSplatBufferBytes / (squares * sizeof(Color)), 1, per_pass));
+  // Threads per pixel, or per square when splatting.
   const uint32_t threads = options.wavefront ? 1u  // the wavefront sums a pixel's samples in one thread
                            : options.threads_per_pixel ? std::min(options.threads_per_pixel, per_pass)
-                                                       : default_threads_per_pixel(pixels, per_pass);
-  const size_t slices = pixels * threads;  // output entries: one slice of `pixels` per thread share
+                                                       : default_threads_per_pixel(splat ? squares : pixels, per_pass);
+  const uint32_t out_slices = splat ? 1u : threads;  // the gather sums a pixel's samples in one thread
+  const size_t slices = pixels * out_slices;  // output entries: one slice of `pixels` per thread share
   const size_t slot_bytes = slices * (6 * sizeof(float) + sizeof(uint32_t));
   Slot slots[2];
   for (Slot& s : slots) {
@@ -365,6 +381,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
     s.dev_out = carve(s.device.get(), slices);
     s.host_out = carve(s.host.get(), slices);
   }
+  DeviceBuffer squares_buf(splat ? squares * per_pass * sizeof(Color) : 0, "the splatted squares' samples");
   DeviceBuffer rays_buf(sizeof(unsigned long long), "the ray counter");
   auto* rays = static_cast<unsigned long long*>(rays_buf.get());
   check(cudaMemset(rays, 0, sizeof(unsigned long long)), "cudaMemset of the ray counter");
@@ -389,6 +406,8 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   params.integrator = rs.integrator;
   params.filter = rs.filter;
   params.threads_per_pixel = threads;
+  params.reach = reach;
+  params.squares = static_cast<Color*>(squares_buf.get());
 
   std::atomic<uint64_t> discarded{0};
   uint32_t spp_done = 0, passes_done = 0;
@@ -402,7 +421,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
     uint64_t bad = tbb::parallel_reduce(
         tbb::blocked_range<size_t>(0, pixels, 4096), uint64_t(0),
         [&](const tbb::blocked_range<size_t>& r, uint64_t acc) {
-          return acc + accumulate_pass(film, o.sum, o.sum_sq, o.count, n, r.begin(), r.end(), threads);
+          return acc + accumulate_pass(film, o.sum, o.sum_sq, o.count, n, r.begin(), r.end(), out_slices);
         },
         [](uint64_t a, uint64_t b) { return a + b; });
     discarded += bad;
@@ -445,6 +464,9 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
         check(cuda::launch_wavefront_pass(wp, rays, static_cast<unsigned long long*>(wf_alive.get()),
                                           static_cast<unsigned long long*>(wf_alive_host.get()), stream.get()),
               "running the wavefront pass (" + std::to_string(cam.width) + "x" + std::to_string(cam.height) + ")");
+      } else if (splat) {
+        check(cuda::launch_splat_pass(params, rays, stream.get()),
+              "launching the splatting kernels (" + std::to_string(cam.width) + "x" + std::to_string(cam.height) + ")");
       } else {
         check(cuda::launch_render_pass(params, rays, stream.get()),
               "launching the render kernel (" + std::to_string(cam.width) + "x" + std::to_string(cam.height) + ")");
