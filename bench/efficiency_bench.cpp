@@ -170,7 +170,7 @@ void profile(const Args& a, Scene s, const Reference& ref) {
   EnvGuideData guide;
   if (wants_env_guide(view, s.settings.env_guide)) {
     arena.execute([&] { guide = build_env_guide(view, tracer, env_guide_options(uint64_t(px) * desc.spp)); });
-    view.lights.data.guide = guide.view;
+    if (guide.view.regions) view.lights.data.guide = &guide.view;
   }
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {

@@ -282,7 +282,7 @@ Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_ou
   EnvGuideData guide;
   if (wants_env_guide(view, scene.settings.env_guide)) {
     guide = build_env_guide(view, p.tracer, env_guide_options(uint64_t(pixels) * p.sampler.spp));
-    p.scene.lights.data.guide = guide.view;
+    if (guide.view.regions) p.scene.lights.data.guide = &guide.view;
   }
   p.threads_per_pixel = threads;
   // Splatting: T threads per square, then one per pixel for the gather.

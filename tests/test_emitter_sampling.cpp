@@ -582,14 +582,16 @@ TEST(EmitterSampling, ConstantEnvironmentOverTheHemisphere) {
     acc += b % 7 == 0 ? 5 : b % 3 == 0 ? 0 : 1;
     cdf[size_t(b)] = b == EnvGuide::kBins - 1 ? 1.f : float(acc / total);
   }
+  EnvGuide guide;
+  guide.regions = regions.data();
+  guide.cdf = cdf.data();
+  guide.lo = {-10.f, -10.f, -10.f};
+  guide.inv_cell = {0.05f, 0.05f, 0.05f};
+  guide.nx = guide.ny = guide.nz = 1;
+  guide.mix = 0.85f;
+  ASSERT_EQ(guide.find(ctx.p, ctx.hemisphere), 0);
   LightData guided;
-  guided.guide.regions = regions.data();
-  guided.guide.cdf = cdf.data();
-  guided.guide.lo = {-10.f, -10.f, -10.f};
-  guided.guide.inv_cell = {0.05f, 0.05f, 0.05f};
-  guided.guide.nx = guided.guide.ny = guided.guide.nz = 1;
-  guided.guide.mix = 0.85f;
-  ASSERT_EQ(guided.guide.find(ctx.p, ctx.hemisphere), 0);
+  guided.guide = &guide;
   for (const int kind : {0, 1, 2}) {
     const bool hemisphere = kind != 1;
     const LightSampleContext c = hemisphere ? ctx : LightSampleContext{ctx.p, ctx.n, ctx.ns};

@@ -146,7 +146,7 @@ TEST_F(EnvGuideTest, AimsAtTheSkylight) {
     return double(hits) / n;
   };
   LightData plain = view.lights.data, guided = plain;
-  guided.guide = g.view;
+  guided.guide = &g.view;
   const double cosine = through_opening(plain), aimed = through_opening(guided);
   // The cosine's share by quadrature of cos θ / π over the opening (a
   // check of the sampling loop itself): ∫∫ h² / (π (x² + z² + h²)²) dx dz.

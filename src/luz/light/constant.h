@@ -28,35 +28,41 @@ struct ConstantLight {
       ls.pdf = uniform_sphere_pdf();
       return ls;
     }
-    const Frame frame = Frame::from_normal(ctx.hemisphere);
-    const int d = data.guide.find(ctx.p, ctx.hemisphere);
-    if (d < 0) {
-      const Vec3 local = square_to_cosine_hemisphere(u);
-      ls.wi = frame.to_world(local);
-      ls.pdf = cosine_hemisphere_pdf(local);
-      return ls;
-    }
-    // The guide's mixture: u.x picks the strategy, then is reused within it.
-    const float m = data.guide.mix;
-    float p_guide;
-    if (u.x < m) {
-      u.x = min(u.x / m, kOneMinusEpsilon);
-      ls.wi = data.guide.sample(d, u, p_guide);
-    } else {
-      u.x = min((u.x - m) / (1.f - m), kOneMinusEpsilon);
-      ls.wi = frame.to_world(square_to_cosine_hemisphere(u));
-      p_guide = data.guide.pdf(d, ls.wi);
-    }
-    ls.pdf = m * p_guide + (1.f - m) * fmaxf(dot(ls.wi, ctx.hemisphere), 0.f) * kInvPi;
+    const int d = data.guide ? data.guide->find(ctx.p, ctx.hemisphere) : -1;
+    if (d >= 0) return sample_guided(ctx, u, *data.guide, d);
+    const Vec3 local = square_to_cosine_hemisphere(u);
+    ls.wi = Frame::from_normal(ctx.hemisphere).to_world(local);
+    ls.pdf = cosine_hemisphere_pdf(local);
     return ls;
   }
   LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit&, const LightData& data) const {
     if (dot(ctx.hemisphere, ctx.hemisphere) == 0.f) return uniform_sphere_pdf();
     const float p_cos = fmaxf(dot(wi, ctx.hemisphere), 0.f) * kInvPi;
-    const int d = data.guide.find(ctx.p, ctx.hemisphere);
-    if (d < 0) return p_cos;
-    const float m = data.guide.mix;
-    return m * data.guide.pdf(d, wi) + (1.f - m) * p_cos;
+    const int d = data.guide ? data.guide->find(ctx.p, ctx.hemisphere) : -1;
+    return d < 0 ? p_cos : guided_pdf(p_cos, wi, *data.guide, d);
+  }
+  // The guide's mixture (distribution d with probability guide.mix, the
+  // cosine otherwise): u.x picks the strategy, then is reused within it. Out
+  // of line on the CPU: scenes without a guide keep their inlined path.
+  LUZ_CPU_NOINLINE LightSample sample_guided(const LightSampleContext& ctx, Vec2 u, const EnvGuide& guide, int d) const {
+    LightSample ls;
+    ls.dist = kInfinity;
+    ls.radiance = radiance;
+    const float m = guide.mix;
+    float p_guide;
+    if (u.x < m) {
+      u.x = min(u.x / m, kOneMinusEpsilon);
+      ls.wi = guide.sample(d, u, p_guide);
+    } else {
+      u.x = min((u.x - m) / (1.f - m), kOneMinusEpsilon);
+      ls.wi = Frame::from_normal(ctx.hemisphere).to_world(square_to_cosine_hemisphere(u));
+      p_guide = guide.pdf(d, ls.wi);
+    }
+    ls.pdf = m * p_guide + (1.f - m) * fmaxf(dot(ls.wi, ctx.hemisphere), 0.f) * kInvPi;
+    return ls;
+  }
+  LUZ_CPU_NOINLINE static float guided_pdf(float p_cos, Vec3 wi, const EnvGuide& guide, int d) {
+    return guide.mix * guide.pdf(d, wi) + (1.f - guide.mix) * p_cos;
   }
   // Emitted rays: a uniform direction, then through the scene's disk.
   LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData& data, Vec3 scene_center,

@@ -25,7 +25,7 @@ struct LightSampleContext {
 struct LightData {
   const float* floats = nullptr;
   TextureView textures;
-  EnvGuide guide;
+  const EnvGuide* guide = nullptr;  // null: none
   LightData() = default;
   LUZ_INLINE LightData(const float* f) : floats(f) {}
 };

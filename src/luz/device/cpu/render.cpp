@@ -12,7 +12,7 @@
 #include "luz/device/progress.h"
 #include "luz/film/splat.h"
 #include "luz/integrator/path.h"
-#include "luz/light/env_guide_build.h"
+#include "luz/device/cpu/env_guide.h"
 
 namespace luz {
 
@@ -72,8 +72,8 @@ struct CpuDevice::Impl {
     // The environment's guide: its pilot traced here, once per device.
     if (wants_env_guide(view, rs.env_guide)) {
       const EnvGuideOptions o = env_guide_options(uint64_t(view.camera.width) * uint64_t(view.camera.height) * rs.spp);
-      arena.execute([&] { guide = build_env_guide(view, tracer, o); });
-      view.lights.data.guide = guide.view;
+      arena.execute([&] { guide = build_env_guide_embree(view, tracer, o); });
+      if (guide.view.regions) view.lights.data.guide = &guide.view;
     }
   }
 

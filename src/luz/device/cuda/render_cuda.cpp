@@ -349,9 +349,10 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.lights.data.floats = up.upload(scene.light_data, "environment maps");
   dev.lights.data.textures = dev.textures;
   if (guide.view.regions) {
-    dev.lights.data.guide = guide.view;  // its grid; its arrays on the device
-    dev.lights.data.guide.regions = up.upload(guide.regions, "the environment guide's regions");
-    dev.lights.data.guide.cdf = up.upload(guide.cdf, "the environment guide's distributions");
+    EnvGuide on_device = guide.view;  // its grid; its arrays on the device
+    on_device.regions = up.upload(guide.regions, "the environment guide's regions");
+    on_device.cdf = up.upload(guide.cdf, "the environment guide's distributions");
+    dev.lights.data.guide = up.upload(&on_device, 1, "the environment guide");
   }
   const BvhTracer tracer = upload_tracer(up, bvh, dev.positions, dev.indices, dev.spheres, dev.opacity(), dev.instances);
 
