@@ -27,8 +27,8 @@ struct RenderSettings {
   // Power by default: it measured the more efficient on bench/manylight.
   LightSamplerType light_sampler = LightSamplerType::Power;
   // A constant environment sampled where it is seen from (light/env_guide.h):
-  // 2.3x less noise indoors under a sky (bench/RESULTS.md), nothing changed
-  // where there is no constant environment.
+  // 2.6x less noise for 1.2x the time indoors under a sky (bench/RESULTS.md),
+  // nothing changed where there is no constant environment.
   bool env_guide = true;
   ExrFormat exr_format;  // how .exr outputs are written (Mitsuba's hdrfilm formats)
 };
