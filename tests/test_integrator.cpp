@@ -19,6 +19,7 @@
 //  * No non-finite samples in any of these renders.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iterator>
@@ -187,10 +188,14 @@ TEST(Integrator, EfficiencyVariantsConvergeToTheSameImage) {
                               {"sobol, roulette from depth 2", SamplerType::Sobol, 2, false},
                               {"independent, environment guide", SamplerType::Independent, 5, true},
                               {"sobol, environment guide", SamplerType::Sobol, 5, true}};
-  const double thr = sidak_z(kFamilyAlpha, 2.0 * std::size(variants) * 3 * 64);
+  // The guide only where there is a constant sky (the box has none).
+  const double compared = 2.0 * std::size(variants) - std::count_if(std::begin(variants), std::end(variants),
+                                                                    [](const Variant& v) { return v.guide; });
+  const double thr = sidak_z(kFamilyAlpha, compared * 3 * 64);
   for (const std::string& path : {kCornell, kSponzaInside}) {
     const Film ref = render(variant(path, SamplerType::Independent, 5, 11));
     for (const Variant& v : variants) {
+      if (v.guide && path != kSponzaInside) continue;
       Agreement g = compare(ref, render(variant(path, v.sampler, v.rr_depth, 12, v.guide)));
       std::printf("[variants %s] %s vs independent: worst block z %.2f at (%d,%d) ch %d, threshold %.2f\n",
                   path.substr(path.rfind('/') + 1).c_str(), v.name, g.worst_z, g.worst_bx, g.worst_by, g.worst_c, thr);
