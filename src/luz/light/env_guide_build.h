@@ -78,7 +78,7 @@ inline constexpr int kRays = 16;            // visibility rays per vertex
 inline constexpr uint8_t kBlocked = 0xff;   // a ray that found geometry
 static_assert(EnvGuide::kBins < kBlocked);
 
-inline float unit(uint64_t seed, uint64_t a, uint64_t b) { return float(hash4(seed, a, b, 0x6e76) >> 40) * 0x1p-24f; }
+inline float unit(uint64_t seed, uint64_t a, uint64_t b) { return to_unit_float(hash4(seed, a, b, 0x6e76)); }
 
 struct Vertex {
   Vec3 p, pole;            // pole zero: no vertex
@@ -108,8 +108,8 @@ EnvGuideData build_env_guide(const SceneView& scene, const Tracer& tracer, const
       uint64_t n_rays = 0;
       auto u = [&](uint32_t k) { return unit(o.seed, i, k); };
       // A (0, 2)-sequence over the film: its first eighth covers it too.
-      const float fx = float(scrambled_sobol_dim0(i, uint32_t(o.seed)) >> 8) * 0x1p-24f * float(cam.width);
-      const float fy = float(scrambled_sobol_dim1(i, uint32_t(o.seed >> 32)) >> 8) * 0x1p-24f * float(cam.height);
+      const float fx = to_unit_float32(scrambled_sobol_dim0(i, uint32_t(o.seed))) * float(cam.width);
+      const float fy = to_unit_float32(scrambled_sobol_dim1(i, uint32_t(o.seed >> 32))) * float(cam.height);
       Ray ray = cam.generate_ray(fx, fy, {u(2), u(3)});
       for (int v = 0; v < depth; ++v) {
         Hit hit;
