@@ -184,11 +184,12 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     const LightsView& lights = scene.lights;
     // The context the previous vertex's light sample had (its p and ns, all
     // a light sampler reads), so that MIS weighs this hit by the same pmf.
-    const LightSampleContext prev_ctx{prev_p, {}, st.prev_ns, st.prev_hemisphere};
+    // Made only where a light was hit: most vertices never need it.
     if (!found) {
       if (lights.environment >= 0) {
         const Light& env = lights[uint32_t(lights.environment)];
         Le = le(env, ray.d, lights.data);
+        const LightSampleContext prev_ctx{prev_p, {}, st.prev_ns, st.prev_hemisphere};
         light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(lights.environment)) * pdf_li(env, prev_ctx, ray.d, {}, lights.data);
       }
     } else {
@@ -196,8 +197,10 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       if (it.emitter >= 0) {
         const Light& light = lights[uint32_t(it.emitter)];
         Le = eval(light, it.ng, -ray.d, scene.hit_uv(hit), lights.data);
-        if (!is_black(Le) && weigh && use_mis)
+        if (!is_black(Le) && weigh && use_mis) {
+          const LightSampleContext prev_ctx{prev_p, {}, st.prev_ns, st.prev_hemisphere};
           light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(it.emitter)) * pdf_li(light, prev_ctx, ray.d, {it.ng, hit.t}, lights.data);
+        }
       }
     }
     if (!is_black(Le) && ((depth > 1) | !params.hide_emitters)) {  // no branch for the flag

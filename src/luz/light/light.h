@@ -76,8 +76,20 @@ LUZ_FORCE_INLINE decltype(auto) visit(const Light& l, F&& f) {
   }
 }
 
+// Triangles and parallelograms are sampled inline; the other models out of
+// line on the CPU, so that their code does not enlarge every scene's path
+// loop (a call per sample is small beside an envmap's or a sphere's sampling).
+template <class M>
+LUZ_CPU_NOINLINE LightSample sample_li_outlined(const M& m, LightSampleContext ctx, Vec2 u, const LightData& data) {
+  return m.sample_li(ctx, u, data);
+}
+
 LUZ_FORCE_INLINE LightSample sample_li(const Light& l, const LightSampleContext& ctx, Vec2 u, const LightData& data) {
-  return visit(l, [&](const auto& m) { return m.sample_li(ctx, u, data); });
+  return visit(l, [&](const auto& m) {
+    using M = std::decay_t<decltype(m)>;
+    if constexpr (std::is_same_v<M, TriangleLight> || std::is_same_v<M, ParallelogramLight>) return m.sample_li(ctx, u, data);
+    else return sample_li_outlined(m, ctx, u, data);
+  });
 }
 
 LUZ_INLINE float pdf_li(const Light& l, const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const LightData& data) {
