@@ -6,6 +6,8 @@
 //   material with that value as a constant (f at random directions; sampling
 //   too where the model's lobe weights do not use the texture's mean), and
 //   the material's stored constant is the texture's mean;
+// - the same harness on a rotated sphere, at hits whose uv (Mitsuba 3's
+//   sphere uv, in closed form) lies inside each square;
 // - blend weights, blend seconds and two-sided backs take textures as well;
 // - float (PFM) bitmaps as parameters; a textured roughness changes the
 //   rendered image where the texture says and nowhere else;
