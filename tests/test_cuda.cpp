@@ -188,7 +188,7 @@ Scene masked_cornell(int res, uint32_t spp, uint64_t seed) {
     else s.materials[m].opacity = masked % 3 == 1 ? 0.5f : 0.8f;
   }
   Material& sphere = s.materials[s.spheres[0].material];
-  sphere.opacity_texture = -1;  // no texture coordinates on a sphere
+  sphere.opacity_texture = -1;  // the sphere keeps a constant opacity
   sphere.opacity = 0.6f;
   EXPECT_GE(masked, 3);
   EXPECT_TRUE(s.view().materials.masked);

@@ -165,7 +165,7 @@ TEST(Gltf, HelmetEmissiveTextureShowsWhereItShould) {
     Ray r = s.camera.generate_ray(fx, fy);
     Hit hit;
     if (!tracer.intersect(r, hit)) return 0.0;
-    const Vec2 uv = hit_uv(s.uvs.data(), s.indices.data(), hit);
+    const Vec2 uv = triangle_uv(s.uvs.data(), s.indices.data(), hit);
     const double u = uv.x - std::floor(uv.x), v = uv.y - std::floor(uv.y);  // the sampler repeats
     const int i = std::min(tex.width - 1, int(u * tex.width)), j = std::min(tex.height - 1, int(v * tex.height));
     const uint32_t t = tex.rgba[size_t(j) * size_t(tex.width) + size_t(i)];

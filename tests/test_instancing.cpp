@@ -236,7 +236,7 @@ Tally compare(const char* name, const Scene& si, const TracerI& ti, const Scene&
     if (!eq(ii.p, jf2.p) || !eq(ii.ng, jf2.ng) || !eq(ii.ns, jf2.ns))
       fail(i, "the Interaction differs from the flattened one at the same barycentrics");
     if (ii.material != jf2.material || ii.emitter != jf2.emitter) fail(i, "material or emitter differs");
-    const Vec2 ui = vi.hit_uv(hi), uf = vf.hit_uv(same);
+    const Vec2 ui = vi.hit_uv(hi, ii.p), uf = vf.hit_uv(same, jf2.p);
     if (ui.x != uf.x || ui.y != uf.y) fail(i, "texture coordinates differ");
     const Frame fi = vi.shading_frame(ii2, hi), ff = vf.shading_frame(jf2, same);
     if (!eq(fi.s, ff.s) || !eq(fi.t, ff.t) || !eq(fi.n, ff.n)) fail(i, "shading frame differs");

@@ -33,8 +33,8 @@
 // their error bars, so light samples read the texture where rays find it.
 //
 // Bad input: a cutoff_angle outside (0, 90], a beam_width above it, negative
-// intensities, a position and a to_world together, textured emitters on
-// spheres or with negative texels: one file:line error.
+// intensities, a position and a to_world together, textured emitters with
+// negative texels (a sphere's too): one file:line error.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -46,7 +46,9 @@
 #include "luz/io/image.h"
 #include "luz/io/load.h"
 #include "cli_helpers.h"
+#include "geometry_helpers.h"
 #include "scene_helpers.h"
+#include "sphere_helpers.h"
 #include "stat_helpers.h"
 #include "temp_dir.h"
 
@@ -131,6 +133,35 @@ class Lights : public TempDirTest {
           const size_t k = 3 * (size_t(y) * kRes + x) + c, b = 3 * (size_t(y / 4) * 8 + x / 4) + c;
           mean[b] += m[k] / 16, var[b] += v[k] / 256;
         }
+  }
+
+  // `light` above the floor: light samples (NEE only) and BSDF samples
+  // (emission found by rays only) agree per 4×4-pixel block at 256 spp
+  // within their error bars (Šidák over the blocks), and more than
+  // `min_lit` block channels are lit. hide_emitters: the camera sees the
+  // floor lit, not the light itself.
+  void expect_light_matches_bsdf(const std::string& light, bool hide_emitters, const char* what, int min_lit) {
+    auto blocks = [&](const std::string& integrator, std::vector<double>& mean, std::vector<double>& var) {
+      Scene s = load(light, integrator);
+      s.settings.spp = 256;
+      s.settings.integrator.hide_emitters = hide_emitters;
+      const Film f = render(s);
+      block_means(f, mean, var);
+    };
+    std::vector<double> m1, v1, m2, v2;
+    blocks("light", m1, v1);
+    blocks("bsdf", m2, v2);
+    const double z = luz_test::sidak_z(kFamilyAlpha, double(m1.size()));
+    double worst = 0;
+    int lit = 0;
+    for (size_t k = 0; k < m1.size(); ++k) {
+      lit += m1[k] > 0.0;  // blocks of an emitter's black back are 0 in both
+      const double sd = std::sqrt(v1[k] + v2[k]) + luz_test::rounding_floor(m1[k]);
+      worst = std::max(worst, std::fabs(m1[k] - m2[k]) / sd);
+    }
+    std::printf("%s, light vs bsdf over 64 blocks: worst |z| %.2f (threshold %.2f), %d of 192 lit\n", what, worst, z, lit);
+    EXPECT_LE(worst, z);
+    EXPECT_GT(lit, min_lit);
   }
 
   // Every pixel and channel against the quadrature of E · rgb[c].
@@ -334,27 +365,127 @@ TEST_F(Lights, TexturedAreaLightAgreesAcrossEstimators) {
     <bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>
     <emitter type="area"><texture type="bitmap" name="radiance"><string name="filename" value="glow.pfm"/></texture></emitter>
   </shape>)";
-  auto blocks = [&](const std::string& integrator, std::vector<double>& mean, std::vector<double>& var) {
-    Scene s = load(light, integrator);
-    s.settings.spp = 256;
-    const Film f = render(s);
-    block_means(f, mean, var);
-  };
-  std::vector<double> m1, v1, m2, v2;
-  blocks("light", m1, v1);
-  blocks("bsdf", m2, v2);
-  const double z = luz_test::sidak_z(kFamilyAlpha, double(m1.size()));
-  double worst = 0;
-  int lit = 0;
-  for (size_t k = 0; k < m1.size(); ++k) {
-    lit += m1[k] > 0.0;  // blocks of the emitter's black back are 0 in both
-    const double sd = std::sqrt(v1[k] + v2[k]) + luz_test::rounding_floor(m1[k]);
-    worst = std::max(worst, std::fabs(m1[k] - m2[k]) / sd);
+  expect_light_matches_bsdf(light, false, "textured area light", 100);
+}
+
+// A textured sphere light (Mitsuba 3's uv: (φ / 2π, θ / π) in the object
+// space of to_world · translate(center) · scale(radius)): a W×H float
+// bitmap, nearest texels, and a rotated to_world. The texel a point shows,
+// in closed form (sphere_helpers.h).
+struct TexturedSphere {
+  static constexpr int kW = 8, kH = 4;
+  Image tex;
+  luz_test::Affine object_to_world;
+  std::string xml;
+
+  TexturedSphere(const std::string& file, luz_test::Dvec center, double radius, bool nearest) {
+    tex.width = kW, tex.height = kH;
+    for (int j = 0; j < kH; ++j)
+      for (int i = 0; i < kW; ++i)
+        for (float c : {0.3f + 1.1f * float(i % 4), 0.2f + 2.5f * float(j), 6.5f - 0.6f * float(i) - 0.4f * float(j)})
+          tex.rgb.push_back(c);
+    const luz_test::Affine to_world =
+        luz_test::Affine::translate(center) * luz_test::Affine::rotate({1, -0.5, 0.3}, 70);
+    object_to_world = to_world * luz_test::Affine::scale({radius, radius, radius});
+    xml = "<shape type=\"sphere\"><float name=\"radius\" value=\"" + std::to_string(radius) + "\"/>" +
+          to_world.mitsuba() + R"(<bsdf type="diffuse"><rgb name="reflectance" value="0"/></bsdf>
+      <emitter type="area"><texture type="bitmap" name="radiance"><string name="filename" value=")" + file + "\"/>" +
+          (nearest ? R"(<string name="filter_type" value="nearest"/>)" : "") + "</texture></emitter></shape>";
   }
-  std::printf("textured area light, light vs bsdf over 64 blocks: worst |z| %.2f (threshold %.2f), %d of 192 lit\n",
-              worst, z, lit);
-  EXPECT_LE(worst, z);
-  EXPECT_GT(lit, 100);
+  // The texel (i, j) at the world point p of the sphere; `mirror`: v → 1 - v.
+  void texel(luz_test::Dvec p, int& i, int& j, bool mirror = false) const {
+    const luz_test::Dvec c = object_to_world.point({});
+    luz_test::Dvec w = p - c, l;
+    // The object-space direction: the inverse of the rotation (orthonormal columns).
+    const luz_test::Dvec ex = luz_test::unit(object_to_world.vector({1, 0, 0})),
+                         ey = luz_test::unit(object_to_world.vector({0, 1, 0})),
+                         ez = luz_test::unit(object_to_world.vector({0, 0, 1}));
+    l = luz_test::unit({dot(w, ex), dot(w, ey), dot(w, ez)});
+    const luz_test::Duv uv = luz_test::mitsuba_sphere_uv(l);
+    i = std::min(kW - 1, int(std::floor(uv.u * kW)));
+    j = std::min(kH - 1, int(std::floor((mirror ? 1.0 - uv.v : uv.v) * kH)));
+  }
+  double value(int i, int j, int c) const { return tex.rgb[3 * (size_t(j) * kW + i) + c]; }
+};
+
+// The sphere seen directly fills much of a 32×32 view: a pixel whose whole
+// footprint (a 5×5 grid of its film positions, edges included) finds the
+// sphere in one texel shows that texel's radiance exactly; the texture with
+// v mirrored does not match.
+TEST_F(Lights, TexturedSphereLightShowsItsTexels) {
+  const TexturedSphere sphere("glow.pfm", {0.1, -0.05, 0}, 1.0, true);
+  write_image((dir / "glow.pfm").string(), sphere.tex);
+  const Scene s = load_scene(write("glow.xml", R"(<scene version="3.0.0"><integrator type="path"/>
+    <sensor type="perspective"><float name="fov" value="30"/>
+      <transform name="to_world"><lookat origin="0,0,5" target="0,0,0" up="0,1,0"/></transform>
+      <sampler type="independent"><integer name="sample_count" value="4"/></sampler>
+      <film type="hdrfilm"><integer name="width" value="32"/><integer name="height" value="32"/><rfilter type="box"/></film>
+    </sensor>)" + sphere.xml + "</scene>"));
+  ASSERT_EQ(s.lights.size(), 1u);
+  ASSERT_EQ(s.lights[0].type, LightType::Sphere);
+  Film f = render(s);
+  const luz_test::Dvec c = sphere.object_to_world.point({});
+  int checked = 0, mismatched_mirror = 0;
+  for (int y = 0; y < 32; ++y)
+    for (int x = 0; x < 32; ++x) {
+      int ti = -1, tj = -1, mi = -1, mj = -1;
+      bool one_texel = true;
+      for (int b = 0; b <= 4 && one_texel; ++b)
+        for (int a = 0; a <= 4 && one_texel; ++a) {
+          const Ray r = s.camera.generate_ray(x + 0.25f * float(a), y + 0.25f * float(b));
+          const luz_test::Dvec o = luz_test::dvec(r.o), d = luz_test::unit(luz_test::dvec(r.d)), oc = o - c;
+          const double bq = dot(oc, d), disc = bq * bq - (dot(oc, oc) - 1.0);
+          if (!(disc > 1e-3)) {
+            one_texel = false;  // misses or grazes the sphere
+            break;
+          }
+          int i, j, i2, j2;
+          sphere.texel(o + (-bq - std::sqrt(disc)) * d, i, j);
+          sphere.texel(o + (-bq - std::sqrt(disc)) * d, i2, j2, true);
+          if (ti < 0) ti = i, tj = j, mi = i2, mj = j2;
+          one_texel = i == ti && j == tj;
+        }
+      if (!one_texel) continue;
+      ++checked;
+      const size_t px = size_t(y) * 32 + x;
+      for (int ch = 0; ch < 3; ++ch) {
+        const double mean = f.sum[3 * px + ch] / f.count[px], want = sphere.value(ti, tj, ch);
+        ASSERT_NEAR(mean, want, 1e-5 * want) << x << "," << y << " channel " << ch << " texel " << ti << "," << tj;
+        mismatched_mirror += std::fabs(mean - sphere.value(mi, mj, ch)) > 1e-3;
+      }
+    }
+  std::printf("%d pixels within one texel of the sphere, %d channels unlike the mirrored texture\n", checked,
+              mismatched_mirror);
+  EXPECT_GT(checked, 200) << "test bug: too few pixels see one texel";
+  EXPECT_GT(mismatched_mirror, checked) << "the test cannot tell the texture from its mirror image";
+}
+
+// The textured sphere light above the diffuse floor: NEE only (sample_li's
+// texel) and BSDF samples only (eval at the hit's uv) agree per 4×4-pixel
+// block within their error bars, as for the rectangle above. Bilinear
+// texels: a smooth texture, the same for both.
+TEST_F(Lights, TexturedSphereLightAgreesAcrossEstimators) {
+  const TexturedSphere sphere("glow.pfm", {0.2, -0.3, 1.0}, 0.5, false);
+  write_image((dir / "glow.pfm").string(), sphere.tex);
+  expect_light_matches_bsdf(sphere.xml, true, "textured sphere light", 150);
+}
+
+// Emitted rays (sample_le, light paths) start with the texel of their
+// origin, as eval gives at that point's uv.
+TEST_F(Lights, TexturedSphereLightEmitsItsTexels) {
+  const TexturedSphere sphere("glow.pfm", {0.2, -0.3, 1.0}, 0.5, true);
+  write_image((dir / "glow.pfm").string(), sphere.tex);
+  const Scene s = load(sphere.xml);
+  const SceneView v = s.view();
+  luz_test::Rng rng(5);
+  for (int k = 0; k < 200; ++k) {
+    const LightLeSample ls = sample_le(v.lights[0], {rng.uniform(), rng.uniform()}, {rng.uniform(), rng.uniform()},
+                                       v.lights.data, v.bounds_center, v.bounds_radius);
+    ASSERT_GT(ls.pdf_pos, 0.f);
+    int i, j;
+    sphere.texel(luz_test::dvec(ls.p), i, j);
+    for (int ch = 0; ch < 3; ++ch) ASSERT_NEAR(ls.radiance[ch], sphere.value(i, j, ch), 1e-5 * sphere.value(i, j, ch)) << k;
+  }
 }
 
 // A two-sided rectangle (pbrt-v4's twosided area lights) turned away from
@@ -417,8 +548,8 @@ TEST_F(Lights, BadTexturedEmittersAreRefused) {
   auto expect_refused = [&](const std::string& light, const std::string& problem) {
     luz_test::expect_load_refused(write("bad.xml", scene_xml(light)), "bad.xml", problem);
   };
-  const std::string glow = R"(<emitter type="area"><texture type="checkerboard" name="radiance"/></emitter>)";
-  expect_refused("<shape type=\"sphere\">" + glow + "</shape>", "a textured emitter on a sphere is not supported");
+  expect_refused(R"(<shape type="sphere"><emitter type="area"><texture type="bitmap" name="radiance">
+    <string name="filename" value="neg.pfm"/></texture></emitter></shape>)", "texel (1, 0) is negative or not finite");
   expect_refused(R"(<shape type="rectangle"><emitter type="area"><texture type="bitmap" name="radiance">
     <string name="filename" value="neg.pfm"/></texture></emitter></shape>)", "texel (1, 0) is negative or not finite");
   expect_refused(R"(<emitter type="spot"><texture type="bitmap" name="texture"><string name="filename" value="none.png"/>

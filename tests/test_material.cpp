@@ -6,6 +6,8 @@
 //   material with that value as a constant (f at random directions; sampling
 //   too where the model's lobe weights do not use the texture's mean), and
 //   the material's stored constant is the texture's mean;
+// - the same harness on a rotated sphere, at hits whose uv (Mitsuba 3's
+//   sphere uv, in closed form) lies inside each square;
 // - blend weights, blend seconds and two-sided backs take textures as well;
 // - float (PFM) bitmaps as parameters; a textured roughness changes the
 //   rendered image where the texture says and nowhere else;
@@ -25,7 +27,9 @@
 #include "luz/io/error.h"
 #include "luz/io/image.h"
 #include "luz/io/load.h"
+#include "geometry_helpers.h"
 #include "scene_helpers.h"
+#include "sphere_helpers.h"
 #include "temp_dir.h"
 
 using namespace luz;
@@ -164,6 +168,54 @@ TEST_F(MaterialTextures, EveryTexturableParameterOfEveryModelFollowsItsTexture) 
     // The two squares differ (the test would pass for a texture bound nowhere otherwise).
     const Bsdf b0 = v.materials.bsdf(id, v.textures, kUv0), b1 = v.materials.bsdf(id, v.textures, kUv1);
     EXPECT_NE(std::memcmp(&b0, &b1, sizeof(Bsdf)), 0) << what;
+  }
+}
+
+// The same harness on a sphere (uv computed at the hit, sphere_uv) under a
+// rotated to_world: at hits on points whose closed-form uv (Mitsuba 3's,
+// sphere_helpers.h) lies inside a square of a 4×2-scaled checkerboard,
+// SceneView::bsdf gives that square's constant BSDF.
+TEST_F(MaterialTextures, CheckerboardOnASphereFollowsItsUv) {
+  const luz_test::Affine to_world = luz_test::Affine::translate({0.5, 0.2, -1}) * luz_test::Affine::rotate({0.4, 1, -0.7}, 110);
+  auto sphere_scene = [&](const std::string& bsdf) {
+    return "<scene version=\"3.0.0\"><sensor type=\"perspective\"/><shape type=\"sphere\">" + to_world.mitsuba() + bsdf +
+           "</shape></scene>";
+  };
+  luz_test::Rng rng(17);
+  for (const Case& c : kCases) {
+    const std::string what = std::string(c.type) + "." + c.param + " on a sphere";
+    auto bsdf = [&](const std::string& param_xml) {
+      return std::string("<bsdf type=\"") + c.type + "\">" + c.fixed + param_xml + "</bsdf>";
+    };
+    const std::string checker = "<texture type=\"checkerboard\" name=\"" + std::string(c.param) + "\">" +
+                                value_xml("color0", c.v0, true) + value_xml("color1", c.v1, true) +
+                                R"(<transform name="to_uv"><scale x="4" y="2"/></transform></texture>)";
+    const Scene textured = load_scene(write("t.xml", sphere_scene(bsdf(checker))));
+    const Scene s0 = load_scene(write("a.xml", sphere_scene(bsdf(value_xml(c.param, c.v0, c.colour)))));
+    const Scene s1 = load_scene(write("b.xml", sphere_scene(bsdf(value_xml(c.param, c.v1, c.colour)))));
+    const SceneView v = textured.view();
+    int seen[2] = {};
+    for (int k = 0; k < 12; ++k) {
+      const luz_test::Dvec l = luz_test::sphere_dir(std::acos(1 - 2 * double(rng.uniform())), 2 * M_PI * double(rng.uniform()));
+      const luz_test::Duv uv = luz_test::mitsuba_sphere_uv(l);
+      // Mitsuba's checkerboard: color0 where exactly one of frac(4u), frac(2v) exceeds 1/2.
+      const double a = 4 * uv.u - std::floor(4 * uv.u), b = 2 * uv.v - std::floor(2 * uv.v);
+      auto near_edge = [](double f) { return std::fabs(f - 0.5) < 0.02 || f < 0.02 || f > 0.98; };
+      if (near_edge(a) || near_edge(b)) continue;
+      const int square = (a > 0.5) != (b > 0.5) ? 0 : 1;
+      const luz_test::Dvec p = to_world.point(l);
+      Ray ray;
+      Hit hit;
+      luz_test::sphere_hit_at(0, p, luz_test::unit(to_world.vector(l)), ray, hit);
+      const Interaction it = v.interaction(ray, hit);
+      Bsdf local;
+      const Bsdf& got = v.bsdf(it, hit, local);
+      const Scene& want = square == 0 ? s0 : s1;
+      expect_same_bsdf(got, want.materials[want.spheres[0].material].bsdf, c.same_sampling,
+                       what + " (" + std::to_string(square) + ")");
+      ++seen[square];
+    }
+    EXPECT_GT(seen[0] + seen[1], 6) << what;
   }
 }
 

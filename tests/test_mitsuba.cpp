@@ -161,7 +161,7 @@ luz::Color emitted(const luz::Scene& s, uint32_t tri, Vec3 w) {
   ray.o = centroid(s, tri) + w;
   ray.d = -w;
   const luz::Interaction it = v.interaction(ray, hit);
-  return it.emitter < 0 ? luz::Color{} : luz::eval(v.lights[uint32_t(it.emitter)], it.ng, w, v.hit_uv(hit), v.lights.data);
+  return it.emitter < 0 ? luz::Color{} : luz::eval(v.lights[uint32_t(it.emitter)], it.ng, w, v.hit_uv(hit, it.p), v.lights.data);
 }
 
 TEST_F(Mitsuba, RectangleEmitsOnItsNormalSide) {

@@ -24,7 +24,9 @@
 
 #include "luz/io/image.h"
 #include "luz/io/load.h"
+#include "geometry_helpers.h"
 #include "scene_helpers.h"
+#include "sphere_helpers.h"
 #include "temp_dir.h"
 
 using namespace luz;
@@ -128,7 +130,7 @@ class NormalMap : public TempDirTest {
           hit.prim = prim, hit.u = bu, hit.v = bv, hit.t = 4.f;
           Ray ray{{0, 0, 4}, {0, 0, -1}};
           Interaction it = v.interaction(ray, hit);
-          const Vec2 uv = v.hit_uv(hit);
+          const Vec2 uv = v.hit_uv(hit, it.p);
           if (!(uv.x > 0.15f && uv.x < 0.85f)) continue;
           const Frame fr = v.shading_frame(it, hit);
           EXPECT_NEAR(fr.n.x, want.x, 1e-5) << prim << " " << bu << " " << bv;
@@ -197,6 +199,119 @@ TEST_F(NormalMap, BumpRampTiltsTheNormalByItsSlope) {
   }
 }
 
+// On a sphere (radius r, rotated and moved by to_world) the maps use
+// sphere_uv's parametrisation (Mitsuba 3's sphere): at the object-space
+// direction l = (θ, φ), with N the outward normal, φ̂ and θ̂ the unit
+// directions of growing φ and θ (R: to_world's rotation),
+//   dp/du = 2π r sin θ φ̂,  dp/dv = π r θ̂.
+// normalmap: n' = a φ̂ + b (N × φ̂) + c N for the map's (a, b, c);
+// bumpmap: n' ∝ N − g_u dp/du / |dp/du|² − g_v dp/dv / |dp/dv|² (the
+// surface gradient of the height, dp/du ⟂ dp/dv), g the scaled height's uv
+// gradient: a ramp along u (4×1) or along v (1×4), slope 1 per unit of uv
+// between the first and last texel centres. At many points, and finite at
+// the poles, where dp/du vanishes.
+class SphereMaps : public NormalMap {
+ protected:
+  const luz_test::Affine to_world =
+      luz_test::Affine::translate({0.3, -0.4, 0.2}) * luz_test::Affine::rotate({1, 0.6, -0.2}, 65);
+  static constexpr double kRadius = 0.8;
+
+  Scene sphere_scene(const std::string& bsdf, bool rotated = true) {
+    const std::string xml = R"(<scene version="3.0.0"><sensor type="perspective"/><shape type="sphere">
+      <float name="radius" value="0.8"/>)" + (rotated ? to_world.mitsuba() : std::string()) + bsdf + "</shape></scene>";
+    return load_scene(write("sphere.xml", xml));
+  }
+  // The shading frame at the sphere's point of object-space angles (θ, φ)
+  // against `want`(N, φ̂, θ̂, sin θ); uv within (0.15, 0.85) along `axis`
+  // (0: u, 1: v) or anywhere (-1).
+  void expect_sphere_frame(const Scene& s, int axis,
+                           const std::function<luz_test::Dvec(luz_test::Dvec, luz_test::Dvec, luz_test::Dvec, double)>& want) {
+    const SceneView v = s.view();
+    luz_test::Rng rng(23);
+    int checked = 0;
+    for (int k = 0; k < 300; ++k) {
+      const double theta = std::acos(1 - 2 * double(rng.uniform())), phi = 2 * M_PI * double(rng.uniform());
+      const luz_test::Dvec l = luz_test::sphere_dir(theta, phi);
+      const luz_test::Duv uv = luz_test::mitsuba_sphere_uv(l);
+      if (axis >= 0 && !((axis ? uv.v : uv.u) > 0.15 && (axis ? uv.v : uv.u) < 0.85)) continue;
+      if (std::sin(theta) < 0.05) continue;  // the float hit point's φ is too uncertain there
+      const luz_test::Dvec N = luz_test::unit(to_world.vector(l));
+      const luz_test::Dvec e_phi = luz_test::unit(to_world.vector({-std::sin(phi), std::cos(phi), 0}));
+      const luz_test::Dvec e_theta = luz_test::unit(
+          to_world.vector({std::cos(theta) * std::cos(phi), std::cos(theta) * std::sin(phi), -std::sin(theta)}));
+      Ray ray;
+      Hit hit;
+      luz_test::sphere_hit_at(0, to_world.point(kRadius * l), N, ray, hit);
+      Interaction it = v.interaction(ray, hit);
+      const Frame fr = v.shading_frame(it, hit);
+      const luz_test::Dvec w = luz_test::unit(want(N, e_phi, e_theta, std::sin(theta)));
+      ASSERT_NEAR(fr.n.x, w.x, 2e-5) << k << " theta " << theta << " phi " << phi;
+      ASSERT_NEAR(fr.n.y, w.y, 2e-5) << k;
+      ASSERT_NEAR(fr.n.z, w.z, 2e-5) << k;
+      ASSERT_EQ(it.ns.x, fr.n.x);
+      ++checked;
+    }
+    EXPECT_GT(checked, 100);
+  }
+  // At both poles of an unrotated sphere (local x = y = 0 exactly): a unit,
+  // finite frame whose normal keeps the map's angle to N where `cos_tilt` is
+  // given.
+  void expect_finite_poles(const Scene& s, double cos_tilt) {
+    const SceneView v = s.view();
+    for (double z : {1.0, -1.0}) {
+      Ray ray;
+      Hit hit;
+      luz_test::sphere_hit_at(0, {0, 0, kRadius * z}, {0, 0, z}, ray, hit);
+      Interaction it = v.interaction(ray, hit);
+      const Frame fr = v.shading_frame(it, hit);
+      for (Vec3 a : {fr.s, fr.t, fr.n}) {
+        ASSERT_TRUE(std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z)) << "pole " << z;
+        EXPECT_NEAR(length(a), 1.f, 1e-5f) << "pole " << z;
+      }
+      if (cos_tilt > -2) EXPECT_NEAR(fr.n.z * z, cos_tilt, 1e-5) << "pole " << z;
+    }
+  }
+};
+
+TEST_F(SphereMaps, NormalMapTiltsAlongTheSpheresTangents) {
+  const double th = 30.0 * M_PI / 180.0;
+  struct Case {
+    const char* name;
+    D3 local;
+  } cases[] = {{"u", {std::sin(th), 0, std::cos(th)}}, {"v", {0, std::sin(th), std::cos(th)}},
+               {"minus_u", {-std::sin(th), 0, std::cos(th)}}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const std::string map = normalmap(write_normal(std::string(c.name) + ".pfm", c.local));
+    expect_sphere_frame(sphere_scene(map), -1, [&](luz_test::Dvec N, luz_test::Dvec e_phi, luz_test::Dvec, double) {
+      return c.local.x * e_phi + c.local.y * luz_test::cross(N, e_phi) + c.local.z * N;
+    });
+    expect_finite_poles(sphere_scene(map, false), std::cos(th));
+  }
+}
+
+TEST_F(SphereMaps, BumpRampsTiltAlongDpDuAndDpDv) {
+  const double scale = 0.6;
+  const std::string along_u = write_map("u.pfm", 4, 1, [](int i, int) { return D3{0.25 * i, 0.25 * i, 0.25 * i}; });
+  const std::string along_v = write_map("v.pfm", 1, 4, [](int, int j) { return D3{0.25 * j, 0.25 * j, 0.25 * j}; });
+  {
+    SCOPED_TRACE("ramp along u");
+    expect_sphere_frame(sphere_scene(bumpmap(along_u, scale)), 0,
+                        [&](luz_test::Dvec N, luz_test::Dvec e_phi, luz_test::Dvec, double sin_theta) {
+                          return N - (scale / (2 * M_PI * kRadius * sin_theta)) * e_phi;
+                        });
+    expect_finite_poles(sphere_scene(bumpmap(along_u, scale), false), -3);
+  }
+  {
+    SCOPED_TRACE("ramp along v");
+    expect_sphere_frame(sphere_scene(bumpmap(along_v, scale)), 1,
+                        [&](luz_test::Dvec N, luz_test::Dvec, luz_test::Dvec e_theta, double) {
+                          return N - (scale / (M_PI * kRadius)) * e_theta;
+                        });
+    expect_finite_poles(sphere_scene(bumpmap(along_v, scale), false), -3);
+  }
+}
+
 // pbrt-v4's displacement is the same bump map at scale 1 (io/pbrt/scene.cpp),
 // of its float texture: the first channel (as pbrt-v4's float image textures
 // read it; green and blue differ here and must not count) times the
@@ -259,14 +374,11 @@ TEST_F(NormalMap, BadInputIsRefused) {
   const std::string height = R"(<texture name="map" type="bitmap"><string name="filename" value="ramp.pfm"/></texture>)";
   struct Bad {
     std::string bsdf, problem;
-    bool sphere = false;
   } bad[] = {
       {"<bsdf type=\"normalmap\">" + tex + "</bsdf>", "normalmap needs exactly one nested bsdf"},
       {"<bsdf type=\"normalmap\">" + kDiffuse + "</bsdf>", "normalmap needs a <texture name=\"normalmap\">"},
       {"<bsdf type=\"bumpmap\">" + height + "</bsdf>", "bumpmap needs exactly one nested bsdf"},
       {"<bsdf type=\"bumpmap\">" + kDiffuse + "</bsdf>", "bumpmap needs exactly one nested texture"},
-      {"<bsdf type=\"normalmap\">" + tex + kDiffuse + "</bsdf>", "a textured bsdf on a sphere", true},
-      {"<bsdf type=\"bumpmap\">" + height + kDiffuse + "</bsdf>", "a textured bsdf on a sphere", true},
       {R"(<bsdf type="normalmap"><texture name="normalmap" type="bitmap"><string name="filename" value="n.png"/></texture>)" +
            kDiffuse + "</bsdf>",
        "the normalmap bitmap must be raw"},
@@ -282,11 +394,7 @@ TEST_F(NormalMap, BadInputIsRefused) {
   int k = 0;
   for (const Bad& b : bad) {
     SCOPED_TRACE(b.problem);
-    std::string xml = scene_xml(b.bsdf, {0, 0, -1});
-    if (b.sphere) {
-      const size_t a = xml.find("<shape type=\"rectangle\">"), e = xml.find("</shape>");
-      xml.replace(a, e - a, "<shape type=\"sphere\">" + b.bsdf);
-    }
+    const std::string xml = scene_xml(b.bsdf, {0, 0, -1});
     const std::string file = "bad" + std::to_string(k++) + ".xml";
     luz_test::expect_load_refused(write(file, xml), file, b.problem);
   }

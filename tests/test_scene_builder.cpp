@@ -90,8 +90,15 @@ TEST(SceneBuilder, TexturesNeedCoordinatesAndMasksDoNotEmit) {
   expect_refused([](SceneBuilder& b) {
     luz::AreaEmission e;
     e.texture = b.add_checkerboard(kAt, {0, 0, 0}, {1, 1, 1}, {});
+    e.two_sided = true;
     b.add_sphere(kAt, {0, 0, 0}, 1.f, b.default_material(), &e);
-  }, "a textured emitter on a sphere without texture coordinates");
+  }, "a two-sided emitting sphere is not supported");
+  // A sphere's object frame comes from its transform's columns: none from a singular one.
+  expect_refused([](SceneBuilder& b) {
+    luz::Matrix4 m;
+    for (int c = 0; c < 3; ++c) m.m[0][c] = 1, m.m[1][c] = m.m[2][c] = 0;
+    b.add_sphere(kAt, {0, 0, 0}, 1.f, b.default_material(), nullptr, false, m);
+  }, "the sphere's transform is singular");
   expect_refused([](SceneBuilder& b) { b.add_checkerboard(kAt, {0, -1, 0}, {1, 1, 1}, {}); },
                  "checkerboard colours must be finite and not negative");
 }

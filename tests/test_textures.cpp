@@ -288,7 +288,7 @@ TEST_F(TextureUv, ObjCoordinatesInterpolateWithTheHitsBarycentrics) {
         hit.u = a;
         hit.v = b;
         Vec3 p = v.interaction(ray, hit).p;
-        Vec2 uv = v.hit_uv(hit);
+        Vec2 uv = v.hit_uv(hit, p);
         EXPECT_NEAR(uv.x, 0.2f + 0.5f * p.x, 1e-6f) << tri << " " << a << " " << b;
         EXPECT_NEAR(uv.y, 1.f - (0.1f + 0.25f * p.y), 1e-6f) << tri << " " << a << " " << b;
       }

@@ -13,7 +13,40 @@ struct Sphere {
   uint32_t material = 0;
   int32_t emitter = -1;
   bool flip_normals = false;
+  uint8_t zero_[3] = {};  // not padding: checkpoints hash a sphere's bytes (render/checkpoint.cpp)
+  // The object frame in which its texture coordinates are spherical angles
+  // (sphere_uv): to_world's rotation, orthonormal; left-handed when to_world
+  // mirrors.
+  Frame frame{{1.f, 0.f, 0.f}, {0.f, 1.f, 0.f}, {0.f, 0.f, 1.f}};
 };
+
+// Texture coordinates of a sphere's point at the object-space direction l
+// from its centre (any length): Mitsuba 3's sphere, uv = (φ / 2π, θ / π)
+// with φ = atan2(y, x) in [0, 2π) and θ from +z. pbrt-v4's full sphere has
+// v = 1 - θ / π, which is this v once its loader flips v as for every pbrt
+// shape (texture.h's convention: v = 0 at the image's top).
+LUZ_INLINE Vec2 sphere_uv(Vec3 l) {
+  float phi = atan2f(l.y, l.x);
+  if (phi < 0.f) phi += 2.f * kPi;
+  const float len = length(l);
+  const float cos_theta = len > 0.f ? fminf(fmaxf(l.z / len, -1.f), 1.f) : 1.f;
+  return {phi * kInv2Pi, acosf(cos_theta) * kInvPi};
+}
+
+// The uv of world point p on sphere s.
+LUZ_INLINE Vec2 sphere_uv(const Sphere& s, Vec3 p) { return sphere_uv(s.frame.to_local(p - s.center)); }
+
+// dp/du and dp/dv (world space) at the object-space unit direction l on a
+// sphere of the given frame and radius, from sphere_uv's parametrisation
+// (Mitsuba 3's Sphere::compute_surface_interaction): dp/du = 2π r (-y, x, 0),
+// dp/dv = π r (z cos φ, z sin φ, -sin θ). At a pole dp/du vanishes and
+// dp/dv takes its limit along φ = 0, the φ sphere_uv gives there.
+LUZ_INLINE void sphere_dp_duv(const Frame& frame, float radius, Vec3 l, Vec3& dpdu, Vec3& dpdv) {
+  const float rho = sqrtf(l.x * l.x + l.y * l.y);
+  const float cos_phi = rho > 0.f ? l.x / rho : 1.f, sin_phi = rho > 0.f ? l.y / rho : 0.f;
+  dpdu = frame.to_world({-l.y, l.x, 0.f}) * (2.f * kPi * radius);
+  dpdv = frame.to_world({l.z * cos_phi, l.z * sin_phi, -rho}) * (kPi * radius);
+}
 
 // Which primitive a ray hit: triangles first, then spheres.
 enum class PrimKind : uint32_t { Triangle, Sphere };

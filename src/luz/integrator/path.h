@@ -196,7 +196,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       it = scene.interaction(ray, hit);
       if (it.emitter >= 0) {
         const Light& light = lights[uint32_t(it.emitter)];
-        Le = eval(light, it.ng, -ray.d, scene.hit_uv(hit), lights.data);
+        Le = eval(light, it.ng, -ray.d, scene.hit_uv(hit, it.p), lights.data);
         if (!is_black(Le) && weigh && use_mis) {
           const LightSampleContext prev_ctx{prev_p, {}, st.prev_ns, st.prev_hemisphere};
           light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(it.emitter)) * pdf_li(light, prev_ctx, ray.d, {it.ng, hit.t}, lights.data);
@@ -362,7 +362,7 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
     bool found = tracer.intersect(st.ray, hit);
     // A textured hit's texels are fetched while the shadow query runs
     // (staircase, 2 threads: 0.523 -> 0.566 Msamples/s; untextured: no change).
-    if (found) scene.prefetch_texture(hit);
+    if (found) scene.prefetch_texture(st.ray, hit);
     trace_shadow();
     if constexpr (Probe::kEnabled) sq_length = st.depth + 1;
     path_vertex<Probe>(scene, st, found, hit, sampler, params, u, sq);

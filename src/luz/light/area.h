@@ -1,4 +1,5 @@
-// Diffuse area lights: constant radiance on the side of the geometric normal
+// Diffuse area lights: a constant radiance, or a texture's at the point's
+// uv (triangles, spheres), on the side of the geometric normal
 // (one-sided, as Mitsuba's `area`; planar ones may emit on both sides, as
 // pbrt-v4's `twosided`), on a triangle, a parallelogram (a quad
 // light: two triangles of one mesh merged by Scene::compile and sampled as
@@ -151,29 +152,40 @@ struct ParallelogramLight : PlanarLight {
 
 struct SphereLight {
   static constexpr bool kDelta = false, kEnvironment = false;
-  Color radiance;
+  Color radiance;  // for a textured light, the texture's mean (what power and bounds use, as PlanarLight)
   uint32_t prim = 0;  // the sphere
+  int32_t texture = -1;  // LightData::textures at the sphere's uv (sphere_uv), or -1: constant radiance
   // Copied from the sphere by Scene::compile.
   Vec3 center;
   float radius = 0.f;
   bool flip = false;  // emits inward
   uint8_t zero_[3] = {};  // not padding: checkpoints hash a light's bytes (render/checkpoint.cpp)
+  Frame frame{{1.f, 0.f, 0.f}, {0.f, 1.f, 0.f}, {0.f, 0.f, 1.f}};  // Sphere::frame
 
-  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const LightData&) const {
-    return area_light_sample(sphere_sample(center, radius, flip, ctx.p, u), radiance);
+  // At the sphere's point p.
+  LUZ_INLINE Color radiance_at(Vec3 p, const LightData& data) const {
+    return texture < 0 ? radiance : data.textures.eval(uint32_t(texture), sphere_uv(frame.to_local(p - center)));
+  }
+  LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const LightData& data) const {
+    const ShapeSample ss = sphere_sample(center, radius, flip, ctx.p, u);
+    return area_light_sample(ss, radiance_at(ss.p, data));
   }
   LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const LightData&) const {
     return sphere_pdf(center, radius, ctx.p, h.n, wi, h.dist);
   }
   // Emitted rays: by area over the whole sphere, then cosine-weighted about
   // the emitting normal (inward when flipped).
-  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData&, Vec3, float) const {
-    return area_light_le_sample(sphere_area_sample(center, radius, flip, u_pos), radiance, u_dir);
+  LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData& data, Vec3, float) const {
+    const AreaSample as = sphere_area_sample(center, radius, flip, u_pos);
+    return area_light_le_sample(as, radiance_at(as.p, data), u_dir);
   }
   LUZ_INLINE LightLePdf pdf_le(Vec3, Vec3 n, Vec3 d, const LightData&, float) const {
     return area_light_le_pdf(sphere_area_pdf(radius), n, d);
   }
-  LUZ_INLINE Color eval(Vec3 n, Vec3 w, Vec2, const LightData&) const { return one_sided(radiance, n, w); }
+  LUZ_INLINE Color eval(Vec3 n, Vec3 w, Vec2 uv, const LightData& data) const {
+    if (texture < 0) return one_sided(radiance, n, w);
+    return dot(n, w) <= 0.f ? Color{} : data.textures.eval(uint32_t(texture), uv);
+  }
   double phi(float) const {
     return M_PI * (4.0 * M_PI * double(radius) * radius) * std::max(0.0, double(average(radiance)));
   }

@@ -21,13 +21,19 @@
 namespace luz {
 
 // Texture coordinates at a triangle hit, interpolated with the hit's own
-// barycentrics ((0, 0) without uvs, or on a sphere: the loader refuses
-// textures there).
-LUZ_FORCE_INLINE Vec2 hit_uv(const Vec2* uvs, const uint32_t* indices, const Hit& hit) {
-  if (!uvs || hit.kind != PrimKind::Triangle) return {};
+// barycentrics ((0, 0) without uvs).
+LUZ_FORCE_INLINE Vec2 triangle_uv(const Vec2* uvs, const uint32_t* indices, const Hit& hit) {
+  if (!uvs) return {};
   const Vec2 t0 = uvs[indices[3 * hit.prim]], t1 = uvs[indices[3 * hit.prim + 1]], t2 = uvs[indices[3 * hit.prim + 2]];
   const float b0 = 1.f - hit.u - hit.v;
   return {t0.x * b0 + t1.x * hit.u + t2.x * hit.v, t0.y * b0 + t1.y * hit.u + t2.y * hit.v};
+}
+
+// Texture coordinates at a hit: a triangle's interpolated, a sphere's at the
+// hit's point p (sphere_uv).
+LUZ_FORCE_INLINE Vec2 hit_uv(const Vec2* uvs, const uint32_t* indices, const Sphere* spheres, const Hit& hit, Vec3 p) {
+  if (hit.kind == PrimKind::Sphere) return sphere_uv(spheres[hit.prim], p);
+  return triangle_uv(uvs, indices, hit);
 }
 
 // What the alpha test reads: the SceneView's arrays (SceneView::opacity()).
@@ -40,18 +46,19 @@ struct OpacityView {
   const Sphere* spheres = nullptr;
   TextureView textures;
 
-  // Opacity at a hit, in [0, 1] (the loader refuses texels above 1).
-  LUZ_INLINE float opacity(const Hit& hit) const {
+  // Opacity at the hit of the ray (o, d), in [0, 1] (the loader refuses
+  // texels above 1).
+  LUZ_INLINE float opacity(Vec3 o, Vec3 d, const Hit& hit) const {
     const Material& m =
         materials[hit.kind == PrimKind::Triangle ? tri_material[hit.prim] : spheres[hit.prim].material];
     if (m.opacity_texture < 0) return m.opacity;
-    const float a = luminance(textures.eval(uint32_t(m.opacity_texture), hit_uv(uvs, indices, hit)));
+    const float a = luminance(textures.eval(uint32_t(m.opacity_texture), hit_uv(uvs, indices, spheres, hit, o + d * hit.t)));
     return m.alpha_cutoff < 0.f ? a : (a >= m.alpha_cutoff ? 1.f : 0.f);
   }
 
   // Does the hit of the ray (o, d) on this primitive exist?
   LUZ_INLINE bool keeps(Vec3 o, Vec3 d, const Hit& hit) const {
-    const float a = opacity(hit);
+    const float a = opacity(o, d, hit);
     if (a >= 1.f) return true;
     if (!(a > 0.f)) return false;
     const uint64_t h = hash4((uint64_t(float_bits(o.x)) << 32) | float_bits(o.y),

@@ -122,16 +122,20 @@ void Scene::flatten_instances() {
   instances.clear();
 }
 
-void Scene::add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip) {
+void Scene::add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip,
+                       int32_t emission_texture, const Frame& frame) {
+  if (emission_texture >= 0 && !emission) throw std::invalid_argument("add_sphere: a textured emitter needs its radiance");
   Sphere s;
   s.center = center;
   s.radius = radius;
   s.material = material;
   s.flip_normals = flip;
+  s.frame = frame;
   if (emission) {
     SphereLight l;
     l.prim = uint32_t(spheres.size());
     l.radiance = *emission;
+    l.texture = emission_texture;
     s.emitter = int32_t(lights.size());
     lights.push_back(l);
   }
@@ -360,6 +364,7 @@ void Scene::compile() {
         l.sphere.center = sp.center;
         l.sphere.radius = sp.radius;
         l.sphere.flip = sp.flip_normals;
+        l.sphere.frame = sp.frame;
         break;
       }
       case LightType::Constant:

@@ -101,7 +101,11 @@ struct Scene {
   void add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
                 uint32_t material, const Color* emission, const std::vector<Vec2>& uv = {},
                 int32_t emission_texture = -1, bool two_sided = false);
-  void add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip);
+  // A sphere; with `emission`, an area light of that radiance, or with
+  // emission_texture >= 0 of that texture's at its uv (emission holding its
+  // mean). frame: its object frame (Sphere::frame).
+  void add_sphere(Vec3 center, float radius, uint32_t material, const Color* emission, bool flip,
+                  int32_t emission_texture = -1, const Frame& frame = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}});
   // A new object, empty; the meshes added next (add_mesh, in object space)
   // are its. Returns its index.
   uint32_t add_object();

@@ -379,14 +379,34 @@ void SceneBuilder::add_mesh(const SourceLoc& at, TriangleMesh mesh, uint32_t mat
 }
 
 void SceneBuilder::add_sphere(const SourceLoc& at, Vec3 center, float radius, uint32_t material,
-                              const AreaEmission* emission, bool flip_normals) {
-  check_shape_material(at, material, emission, false, "a sphere");
-  if (emission && emission->texture >= 0) error(at, "a textured emitter on a sphere is not supported");
+                              const AreaEmission* emission, bool flip_normals, const Matrix4& orientation) {
+  check_shape_material(at, material, emission, true, "a sphere");
   if (emission && emission->two_sided) error(at, "a two-sided emitting sphere is not supported");
   if (!(radius > 0.f) || !std::isfinite(radius)) error(at, "the sphere's radius must be finite and positive");
   if (!is_finite(center) || max_abs(center) + radius > kMaxCoordinate)
     error(at, "the sphere is not finite or reaches beyond 1e18");
-  scene_.add_sphere(center, radius, material, emission ? &emission->radiance : nullptr, flip_normals);
+  // The object axes: orientation's columns, orthonormalised (Gram-Schmidt,
+  // in double), z keeping the columns' handedness.
+  double c[3][3], a[3][3];
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 3; ++i) c[j][i] = orientation.m[i][j];
+  auto dot3 = [](const double* x, const double* y) { return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]; };
+  auto unit = [&](double* x) {
+    const double l = std::sqrt(dot3(x, x));
+    if (!(l > 0) || !std::isfinite(l)) error(at, "the sphere's transform is singular or not finite");
+    for (int i = 0; i < 3; ++i) x[i] /= l;
+  };
+  for (int i = 0; i < 3; ++i) a[0][i] = c[0][i];
+  unit(a[0]);
+  const double d01 = dot3(a[0], c[1]);
+  for (int i = 0; i < 3; ++i) a[1][i] = c[1][i] - d01 * a[0][i];
+  unit(a[1]);
+  for (int i = 0; i < 3; ++i) a[2][i] = a[0][(i + 1) % 3] * a[1][(i + 2) % 3] - a[0][(i + 2) % 3] * a[1][(i + 1) % 3];
+  if (dot3(a[2], c[2]) < 0)
+    for (double& x : a[2]) x = -x;
+  auto vec = [](const double* x) { return Vec3{float(x[0]), float(x[1]), float(x[2])}; };
+  scene_.add_sphere(center, radius, material, emission ? &emission->radiance : nullptr, flip_normals,
+                    emission ? emission->texture : -1, Frame{vec(a[0]), vec(a[1]), vec(a[2])});
 }
 
 // ---- instancing ----

@@ -127,8 +127,11 @@ class SceneBuilder {
   // or the emitter is textured, no masked emitter.
   void add_mesh(const SourceLoc& at, TriangleMesh mesh, uint32_t material, const AreaEmission* emission = nullptr,
                 bool flip_normals = false);
+  // A sphere: `orientation`'s linear part (a rotation, perhaps a mirror,
+  // times a uniform scale: the loader's to_world) gives its object frame,
+  // in which its texture coordinates are spherical angles (sphere_uv).
   void add_sphere(const SourceLoc& at, Vec3 center, float radius, uint32_t material,
-                  const AreaEmission* emission = nullptr, bool flip_normals = false);
+                  const AreaEmission* emission = nullptr, bool flip_normals = false, const Matrix4& orientation = {});
 
   // ---- instancing ----
   // An object: meshes stored once (in object space), placed by instances.

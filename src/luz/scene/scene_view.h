@@ -138,7 +138,8 @@ struct SceneView {
     return it;
   }
 
-  LUZ_INLINE Vec2 hit_uv(const Hit& hit) const { return luz::hit_uv(uvs, indices, hit); }
+  // Texture coordinates at a hit whose point is p (spheres read it).
+  LUZ_INLINE Vec2 hit_uv(const Hit& hit, Vec3 p) const { return luz::hit_uv(uvs, indices, spheres, hit, p); }
 
   // The shading frame at a hit: around it.ns, or, for a material with a
   // normal or bump map, the perturbed frame (it.ns set to its normal), in
@@ -148,14 +149,14 @@ struct SceneView {
   LUZ_FORCE_INLINE Frame shading_frame(Interaction& it, const Hit& hit) const {
     const Material& m = materials.list[it.material];
     if (__builtin_expect((m.normal_map & m.bump_map) < 0, 1)) return Frame::from_normal(it.ns);  // neither map (both -1)
-    const Frame f = perturbed_frame(it.ng, it.ns, hit, m);
+    const Frame f = perturbed_frame(it.p, it.ng, it.ns, hit, m);
     it.ns = f.n;
     return f;
   }
 
   // The frame of a normal or bump map (Mitsuba 3's normalmap.cpp and
-  // bumpmap.cpp) at a triangle hit (barycentrics bu, bv), from the
-  // triangle's dp/du and dp/dv:
+  // bumpmap.cpp) at a hit of point p, from the surface's dp/du and dp/dv (a
+  // triangle's from its vertices' uvs, a sphere's from sphere_uv's angles):
   //   normalmap: n = normalize(2 rgb - 1) in the tangent frame (s along
   //     dp/du made orthogonal to ns, t = ns × s, ns), Mitsuba's shading frame;
   //   bumpmap: the height h's uv gradient g (scaled) displaces the surface
@@ -164,18 +165,27 @@ struct SceneView {
   // The new normal is turned to ng's side, as an interpolated normal is, so
   // the integrator's side tests (against ng) apply unchanged; a degenerate
   // one (a (0.5, 0.5, 0.5) texel) leaves the frame unperturbed. The tangent
-  // is dp/du made orthogonal to the new normal.
-  LUZ_FORCE_INLINE Frame perturbed_frame(Vec3 ng, Vec3 ns, const Hit& hit, const Material& m) const {
-    if (hit.kind != PrimKind::Triangle || !uvs) return Frame::from_normal(ns);  // the loader refuses these
-    const float bu = hit.u, bv = hit.v;
-    Vec3 p0, p1, p2;
-    world_triangle(hit, p0, p1, p2);
-    const uint32_t* v = indices + 3 * size_t(hit.prim);
-    const Vec2 t0 = uvs[v[0]], t1 = uvs[v[1]], t2 = uvs[v[2]];
+  // is dp/du made orthogonal to the new normal (any, at a sphere's pole,
+  // where dp/du vanishes).
+  LUZ_FORCE_INLINE Frame perturbed_frame(Vec3 p, Vec3 ng, Vec3 ns, const Hit& hit, const Material& m) const {
     Vec3 dpdu, dpdv;
-    triangle_dp_duv(p0, p1, p2, t0, t1, t2, ng, dpdu, dpdv);
-    const float b0 = 1.f - bu - bv;
-    const Vec2 uv{t0.x * b0 + t1.x * bu + t2.x * bv, t0.y * b0 + t1.y * bu + t2.y * bv};  // as hit_uv
+    Vec2 uv;
+    if (hit.kind == PrimKind::Sphere) {
+      const Sphere& s = spheres[hit.prim];
+      const Vec3 l = s.frame.to_local(p - s.center);
+      uv = sphere_uv(l);
+      sphere_dp_duv(s.frame, s.radius, l * (1.f / s.radius), dpdu, dpdv);
+    } else {
+      if (!uvs) return Frame::from_normal(ns);  // the loader refuses these
+      const float bu = hit.u, bv = hit.v;
+      Vec3 p0, p1, p2;
+      world_triangle(hit, p0, p1, p2);
+      const uint32_t* v = indices + 3 * size_t(hit.prim);
+      const Vec2 t0 = uvs[v[0]], t1 = uvs[v[1]], t2 = uvs[v[2]];
+      triangle_dp_duv(p0, p1, p2, t0, t1, t2, ng, dpdu, dpdv);
+      const float b0 = 1.f - bu - bv;
+      uv = {t0.x * b0 + t1.x * bu + t2.x * bv, t0.y * b0 + t1.y * bu + t2.y * bv};  // as triangle_uv
+    }
     Vec3 n;
     if (m.normal_map >= 0) {
       const Color c = textures.eval(uint32_t(m.normal_map), uv);
@@ -199,13 +209,14 @@ struct SceneView {
   // effect on any result; nothing on the GPU. Forced inline: GCC 12 finds a
   // function whose only effect is a prefetch free of side effects and drops
   // calls to it.
-  LUZ_FORCE_INLINE void prefetch_texture(const Hit& hit) const {
+  LUZ_FORCE_INLINE void prefetch_texture(const Ray& ray, const Hit& hit) const {
 #if !defined(__CUDA_ARCH__)
-    if (hit.kind != PrimKind::Triangle) return;
-    const int32_t t = materials.first_texture(tri_material[hit.prim]);
-    if (t >= 0) textures.prefetch(uint32_t(t), hit_uv(hit));
+    const bool sphere = hit.kind == PrimKind::Sphere;
+    const int32_t t = materials.first_texture(sphere ? spheres[hit.prim].material : tri_material[hit.prim]);
+    if (t >= 0) textures.prefetch(uint32_t(t), sphere ? sphere_uv(spheres[hit.prim], ray.o + ray.d * hit.t)
+                                                       : triangle_uv(uvs, indices, hit));
 #else
-    (void)hit;
+    (void)ray, (void)hit;
 #endif
   }
 
@@ -216,7 +227,7 @@ struct SceneView {
     const Material& m = materials.list[it.material];
     if (m.num_bindings == 0) return m.bsdf;
     local.copy_live(m.bsdf);
-    materials.apply_textures(local, m, textures, hit_uv(hit));
+    materials.apply_textures(local, m, textures, hit_uv(hit, it.p));
     return local;
   }
 

@@ -152,8 +152,9 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
   if (emission && object >= 0) error(n, "an emitter on a shape inside a shapegroup is not supported (as in Mitsuba 3)");
 
   // Textures, masks, normal and bump maps need texture coordinates: the
-  // built-in shapes but the cube and sphere have them, meshes where their
-  // files do. Only a textured shape keeps them (see read_obj).
+  // built-in shapes have them (the sphere's are computed at each hit),
+  // meshes where their files do. Only a textured shape keeps them (see
+  // read_obj).
   const Material& mat = builder_.scene().materials[size_t(material)];
   const bool textured_bsdf = mat.num_bindings > 0 || mat.opacity_texture >= 0 || mat.normal_map >= 0 || mat.bump_map >= 0;
   const bool textured = textured_bsdf || area.texture >= 0;
@@ -170,7 +171,6 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
   double smooth_angle = -1;   // a mesh file's max_smooth_angle (< 0: none)
   if (type == "sphere") {
     if (object >= 0) error(n, "a sphere inside a shapegroup is not supported (objects hold triangle meshes)");
-    refuse_texture("a sphere is not supported (no texture coordinates)");
     Vec3 center = p.get_point("center", {});
     double radius = p.get_float("radius", 1.0);
     if (!(radius > 0)) error(n, "radius must be positive");
@@ -180,7 +180,9 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
           sz = length(to_world.vector({0, 0, 1}));
     if (std::fabs(sx - sy) > 1e-4f * sx || std::fabs(sx - sz) > 1e-4f * sx)
       error(n, "a sphere's to_world must scale uniformly");
-    builder_.add_sphere(loc(n), c, float(radius) * sx, uint32_t(material), emission, flip);
+    // Mitsuba 3's sphere is to_world · translate(center) · scale(radius) of
+    // the unit sphere: its uv angles are taken in to_world's axes.
+    builder_.add_sphere(loc(n), c, float(radius) * sx, uint32_t(material), emission, flip, to_world);
     return;
   }
   if (type == "rectangle") {
@@ -202,8 +204,16 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
     flat = false;  // the radial vertex normals shade it round
   } else if (type == "cube") {
     p.check_all_used();
-    refuse_texture("a cube is not supported (no texture coordinates)");
-    // Each face: 4 corners counter-clockwise seen from outside.
+    // Each face: 4 corners counter-clockwise seen from outside, with Mitsuba
+    // 3's uvs (its cube plugin): on each face u and v are (1 + s x_i) / 2 of
+    // one coordinate x_i and a sign s, per face as its vertex table gives.
+    struct FaceUv {
+      int u_axis, u_sign, v_axis, v_sign;
+    };
+    // Faces by (axis, sign): -x, +x, -y, +y, -z, +z.
+    constexpr FaceUv kFaceUv[3][2] = {{{1, 1, 2, 1}, {1, 1, 2, -1}},
+                                      {{2, 1, 0, 1}, {0, -1, 2, -1}},
+                                      {{1, -1, 0, 1}, {1, 1, 0, 1}}};
     for (int axis = 0; axis < 3; ++axis)
       for (int sgn = -1; sgn <= 1; sgn += 2) {
         Vec3 nn{};
@@ -211,6 +221,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
         int a = (axis + 1) % 3, b = (axis + 2) % 3;
         uint32_t base = uint32_t(pos.size());
         const float corners[4][2] = {{-1, -1}, {1, -1}, {1, 1}, {-1, 1}};
+        const FaceUv& f = kFaceUv[axis][sgn > 0];
         for (const auto& cr : corners) {
           Vec3 v{};
           v[axis] = float(sgn);
@@ -218,6 +229,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
           v[b] = cr[1];
           pos.push_back(v);
           nrm.push_back(nn);
+          uv.push_back({0.5f * (1.f + float(f.u_sign) * v[f.u_axis]), 0.5f * (1.f + float(f.v_sign) * v[f.v_axis])});
         }
         idx.insert(idx.end(), {base, base + 1, base + 2, base + 2, base + 3, base});
       }

@@ -978,8 +978,10 @@ class PbrtScene final : public ParserTarget {
     // A closed sphere seen from outside shows only its outer side.
     if (gs_.area_light && gs_.area_two_sided)
       builder_.warn(at, "a two-sided sphere light emits outward only (Luz's sphere lights are one-sided)");
+    // pbrt-v4's full sphere: uv = (φ / 2π, 1 - θ / π) in the CTM's axes,
+    // v flipped as for every pbrt shape (sphere_uv).
     builder_.add_sphere(at, m.point({0, 0, 0}), float(r) * sx, mat, gs_.area_light ? &e : nullptr,
-                        gs_.reverse_orientation != (m.det3() < 0));
+                        gs_.reverse_orientation != (m.det3() < 0), m);
   }
 
   // pbrt's disk (z = height, normal +z) as a fan of kDiskSegments triangles
