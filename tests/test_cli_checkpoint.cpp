@@ -303,6 +303,18 @@ TEST_F(Resume, FlagsThatOverrideTheSceneAreSaidAndProgressIsLoggedToFiles) {
   EXPECT_EQ(r.err, "luz: warning: --max-depth 2 overrides the scene's 65\n") << "-q: only warnings";
 }
 
+// The light sampler in the EXR metadata: the BVH by default, power when
+// --light-sampler says so.
+TEST_F(Resume, LightSamplerIsTheBvhUnlessTheFlagSaysPower) {
+  for (const char* flag : {"", "power", "bvh"}) {
+    std::vector<std::string> args = {"render", kCornell, "-D", "res=8", "--spp", "1", "-q", "-o", "x.exr"};
+    if (*flag) args.insert(args.end(), {"--light-sampler", flag});
+    CliResult r = run(args);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(exr_metadata(dir / "x.exr")["luz:lightSampler"], *flag ? flag : "bvh") << flag;
+  }
+}
+
 TEST_F(Resume, Version) {
   CliResult r = run({"--version"});
   EXPECT_EQ(r.status, 0);
