@@ -9,7 +9,8 @@
 // sets Russian roulette's first depth, as sobol/rr2; a suffix /fis
 // applies the pixel filter by filter sampling instead of splatting, as
 // scene/fis; a last suffix /noguide turns off the constant environment's
-// guide, as scene/noguide or scene/fis/noguide) is rendered R
+// guide, as scene/noguide or scene/fis/noguide; a very last suffix /power or
+// /bvh picks the light sampler, as scene/power, else the scene's) is rendered R
 // times, the variants interleaved round by round so that they share the
 // machine's changing speed (round k renders with seed K + k + 1). For each: seconds (the device's builds and the passes), relMSE against a
 // converged reference, efficiency = 1 / (relMSE × seconds); also the
@@ -46,6 +47,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -55,6 +57,7 @@
 #include "luz/io/error.h"
 #include "luz/io/load.h"
 #include "luz/light/env_guide_build.h"
+#include "luz/scene/scene_info.h"
 #include "reference.h"
 
 using namespace luz;
@@ -75,15 +78,6 @@ struct Args {
   uint32_t spp = 64, ref_factor = 16;
   bool profile = false, skip_emitters = false;
 };
-
-const char* sampler_name(SamplerType t) {
-  switch (t) {
-    case SamplerType::Independent: return "independent";
-    case SamplerType::Stratified: return "stratified";
-    case SamplerType::Sobol: return "sobol";
-  }
-  return "?";
-}
 
 bool parse_sampler(const std::string& s, SamplerType& t) {
   for (SamplerType c : {SamplerType::Independent, SamplerType::Stratified, SamplerType::Sobol})
@@ -364,6 +358,7 @@ int main(int argc, char** argv) {
       int rr_depth;
       bool fis;  // filter sampling instead of the default splatting
       bool guide;  // the constant environment's guide (the default)
+      LightSamplerType light;
       std::vector<double> seconds, cpu, rel;
     };
     std::vector<Variant> variants;
@@ -372,6 +367,16 @@ int main(int argc, char** argv) {
       const std::string item = a.samplers.substr(at, comma - at);
       at = comma + 1;
       std::string base_item = item;
+      LightSamplerType light = base.settings.light_sampler;
+      bool light_named = false;
+      for (const auto& [suffix, t] : {std::pair{"/power", LightSamplerType::Power}, {"/bvh", LightSamplerType::Bvh}}) {
+        const size_t len = std::strlen(suffix);
+        if (base_item.size() > len && base_item.compare(base_item.size() - len, len, suffix) == 0) {
+          base_item.resize(base_item.size() - len);
+          light = t, light_named = true;
+          break;
+        }
+      }
       const bool guide = !(base_item.size() > 8 && base_item.compare(base_item.size() - 8, 8, "/noguide") == 0);
       if (!guide) base_item.resize(base_item.size() - 8);
       const bool fis = base_item.size() > 4 && base_item.compare(base_item.size() - 4, 4, "/fis") == 0;
@@ -388,7 +393,8 @@ int main(int argc, char** argv) {
       if (slash != std::string::npos) name += ", rr_depth " + std::to_string(rr);
       if (fis) name += ", filter sampling";
       if (!guide) name += ", no env guide";
-      variants.push_back({name, t, rr, fis, guide, {}, {}, {}});
+      if (light_named) name += std::string(", ") + light_sampler_name(light) + " light sampler";
+      variants.push_back({name, t, rr, fis, guide, light, {}, {}, {}});
     }
     for (int round = 0; round < a.rounds; ++round)
       for (Variant& v : variants) {
@@ -401,6 +407,7 @@ int main(int argc, char** argv) {
         const double cpu0 = cpu_seconds();
         if (v.fis) s.settings.reconstruction = Reconstruction::FilterSampling;
         s.settings.env_guide = v.guide;
+        s.settings.light_sampler = v.light;
         // The passes and what the device builds first (the environment's
         // guide: part of a variant's cost; Embree's build: the same for all).
         const auto t0 = std::chrono::steady_clock::now();

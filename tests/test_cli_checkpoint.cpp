@@ -12,6 +12,7 @@
 //    file system full: tmpfs mounted in a mount namespace of the test's own)
 //    does not keep the others from being written; a symlinked output is
 //    written through to its target.
+//  * The light sampler in the EXR metadata, as --light-sampler sets it.
 //  * luz --version.
 #include <ImfHeader.h>
 #include <ImfInputFile.h>
@@ -301,6 +302,18 @@ TEST_F(Resume, FlagsThatOverrideTheSceneAreSaidAndProgressIsLoggedToFiles) {
   r = run({"render", kCornell, "-D", "res=8", "--spp", "4", "--max-depth", "2", "-q", "-o", "x.pfm"});
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_EQ(r.err, "luz: warning: --max-depth 2 overrides the scene's 65\n") << "-q: only warnings";
+}
+
+// The light sampler in the EXR metadata: the BVH by default, power when
+// --light-sampler says so.
+TEST_F(Resume, LightSamplerIsTheBvhUnlessTheFlagSaysPower) {
+  for (const char* flag : {"", "power", "bvh"}) {
+    std::vector<std::string> args = {"render", kCornell, "-D", "res=8", "--spp", "1", "-q", "-o", "x.exr"};
+    if (*flag) args.insert(args.end(), {"--light-sampler", flag});
+    CliResult r = run(args);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(exr_metadata(dir / "x.exr")["luz:lightSampler"], *flag ? flag : "bvh") << flag;
+  }
 }
 
 TEST_F(Resume, Version) {

@@ -27,6 +27,7 @@
 #include "luz/device/cpu/render.h"
 #include "luz/io/load.h"
 #include "stat_helpers.h"
+#include "temp_dir.h"
 
 using namespace luz;
 
@@ -650,6 +651,32 @@ TEST(LightSamplerRender, MisUsesThePreviousVertexContext) {
   std::printf("bvh against power: worst block |z| %.2f (threshold %.2f) at block (%d, %d) channel %d, mean z² %.2f over "
               "%d\n", worst, zmax, worst_at[0], worst_at[1], worst_at[2], sum_z2 / n, n);
   EXPECT_LT(worst, zmax);
+}
+
+}  // namespace
+
+namespace {
+
+// The default light sampler: the BVH wherever a scene names none (every
+// format), a pbrt-v4 file's "lightsampler" kept. (The CLI's --light-sampler
+// over it: test_cli_checkpoint.cpp, by the EXR metadata.)
+class LightSamplerDefault : public TempDirTest {};
+
+TEST_F(LightSamplerDefault, BvhUnlessTheSceneNamesOne) {
+  EXPECT_EQ(RenderSettings{}.light_sampler, LightSamplerType::Bvh);
+  EXPECT_EQ(load_scene(LUZ_SOURCE_DIR "/scenes/cornell-box.xml").settings.light_sampler, LightSamplerType::Bvh);
+  write("two.mtl", "newmtl glow\nKd 0.5 0.5 0.5\nKe 4 4 4\n");
+  const std::string obj = write("two.obj", "mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nusemtl glow\n"
+                                           "f 1 2 3\nf 1 3 4\n");
+  EXPECT_EQ(load_scene(obj).settings.light_sampler, LightSamplerType::Bvh);
+  const std::string world = "WorldBegin\nAttributeBegin\nAreaLightSource \"diffuse\" \"rgb L\" [ 4 4 4 ]\n"
+                            "Shape \"sphere\" \"float radius\" 0.5\nAttributeEnd\n"
+                            "Translate 2 0 0\nAreaLightSource \"diffuse\" \"rgb L\" [ 1 1 1 ]\n"
+                            "Shape \"sphere\" \"float radius\" 0.5\n";
+  EXPECT_EQ(load_scene(write("none.pbrt", world)).settings.light_sampler, LightSamplerType::Bvh);
+  EXPECT_EQ(load_scene(write("power.pbrt", "Integrator \"path\" \"string lightsampler\" \"power\"\n" + world))
+                .settings.light_sampler,
+            LightSamplerType::Power);
 }
 
 }  // namespace

@@ -595,6 +595,7 @@ int render(RenderOptions o, const std::string& resume, const std::set<std::strin
       {"luz:integrator", luz::integrator_name(s.integrator.type)},
       {"luz:maxDepth", std::to_string(s.integrator.max_depth)},
       {"luz:sampler", luz::sampler_name(s.sampler)},
+      {"luz:lightSampler", luz::light_sampler_name(s.light_sampler)},
       {"luz:renderSeconds", seconds_text(done.stats.seconds)},
       {"luz:discardedSamples", std::to_string(done.stats.discarded)},
   };
@@ -694,7 +695,7 @@ int run(int argc, char** argv, luz::MpiJob* job) {
   rc->add_option("--sampler", o.sampler, "sample generator (default: the scene's, else sobol)")->check(CLI::IsMember({"independent", "stratified", "sobol"}));
   rc->add_option("--integrator", o.integrator, "estimator")->check(CLI::IsMember({"path", "bsdf", "light"}));
   rc->add_option("--light-sampler", o.light_sampler,
-                 "light selection: power (default: by power alone) or bvh (a light BVH: also by distance and orientation)")
+                 "light selection: bvh (default: a light BVH, by power, distance and orientation) or power (by power alone)")
       ->check(CLI::IsMember({"power", "bvh"}));
   rc->add_option("--reconstruction", o.reconstruction,
                  "how samples make pixels: splat (default, as Mitsuba: each sample weighed into every pixel its filter "

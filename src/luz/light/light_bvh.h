@@ -56,8 +56,7 @@ inline constexpr int kLightTrailLevels = 20;
 // The importance of light bounds at a shading point, written once over a
 // lane type F: a float (CUDA, and compilers without GCC's vector extensions)
 // or, on the CPU, 8 floats (M: the mask type of F's comparisons). Branch-free:
-// every operand is computed before the selects that pick among them, and
-// cosines are clamped to [-1, 1] so that 1 - cos² >= 0 needs no select.
+// every operand is computed before the selects that pick among them.
 namespace light_lanes {
 
 #if !defined(__CUDACC__) && defined(__GNUC__) && !defined(__clang__)
@@ -102,6 +101,15 @@ LUZ_FORCE_INLINE F lane_max(F a, F b) {
   return select(a > b, a, b);
 }
 
+// The sine of the angle between d and a unit vector a, from d², d·a and
+// 1/|d|: √(d² - (d·a)²) / |d|, whose root starts beside |d|'s instead of
+// after the division (the walk waits on this chain). 0 where d is 0. With
+// r for d·a: cos θb, the bounding sphere's half-angle.
+template <class F>
+LUZ_FORCE_INLINE F sine(F d2, F da, F inv_d) {
+  return lane_sqrt(lane_max(d2 - da * da, d2 - d2)) * inv_d;
+}
+
 // cx..cz: the box's centre; r: its bounding sphere's radius; w, cos_o,
 // sin_o: the normals' cone; two_sided: a mask; p, n, h: the context's point, shading normal and
 // hemisphere (zero: none); no_n: 2 where n is zero, else 0.
@@ -114,14 +122,16 @@ LUZ_FORCE_INLINE F importance(F cx, F cy, F cz, F r, F wx, F wy, F wz, F phi, F 
   // pbrt's clamp of the distance, so points inside the box are not
   // infinitely important: max(d², |diagonal| / 2).
   const F d2 = lane_max(dc2, r);
+  const F inv_d2 = 1.f / (d2 + FLT_MIN);  // beside the chain below, which then ends in a product
   // (at the centre d = 0, so the cosines below are 0 as with no direction)
   const F inv_d = 1.f / lane_sqrt(dc2 + FLT_MIN);
-  const F cos_w0 = lane_min(lane_max((wx * dx + wy * dy + wz * dz) * inv_d, zero - 1.f), one);
+  const F dw = wx * dx + wy * dy + wz * dz, dn = dx * n.x + dy * n.y + dz * n.z;
+  const F cos_w0 = lane_min(lane_max(dw * inv_d, zero - 1.f), one);
   const F cos_w = select(two_sided, select(cos_w0 < 0.f, -cos_w0, cos_w0), cos_w0);
-  const F sin_w = lane_sqrt(1.f - cos_w * cos_w);
+  const F sin_w = sine(dc2, dw, inv_d);
   // The cone the bounding sphere subtends from p (every direction from inside).
   const auto inside = dc2 < r * r;
-  const F sin_b0 = lane_min(r * inv_d, one), cos_b0 = lane_sqrt(1.f - sin_b0 * sin_b0);
+  const F sin_b0 = lane_min(r * inv_d, one), cos_b0 = sine(dc2, r, inv_d);
   const F sin_b = select(inside, zero, sin_b0), cos_b = select(inside, zero - 1.f, cos_b0);
   // θ' = max(0, θw - θo - θb), by cosines of clamped differences.
   const auto in_o = cos_w > cos_o;
@@ -129,11 +139,10 @@ LUZ_FORCE_INLINE F importance(F cx, F cy, F cz, F r, F wx, F wy, F wz, F phi, F 
   const F sin_x = select(in_o, zero, sin_w * cos_o - cos_w * sin_o);
   const F cos_p = select(cos_x > cos_b, one, cos_x * cos_b + sin_x * sin_b);
   // θi: the lights' direction against the surface normal, less θb.
-  const F dn = dx * n.x + dy * n.y + dz * n.z;
   const F cos_i = lane_min(select(dn < 0.f, -dn, dn) * inv_d, one);
-  const F sin_i = lane_sqrt(1.f - cos_i * cos_i);
+  const F sin_i = sine(dc2, dn, inv_d);
   const F f_i = select(cos_i + no_n > cos_b, one, cos_i * cos_b + sin_i * sin_b);
-  const F v = phi * cos_p * f_i / (d2 + FLT_MIN);
+  const F v = phi * cos_p * f_i * inv_d2;
   // Below the tangent plane by more than the radius (and a rounding margin);
   // never without a hemisphere (h zero: 0 > margin is false).
   const F margin = 1.0001f * r + 1e-4f * dc2 * inv_d;
@@ -190,24 +199,23 @@ struct BvhLightSampler {
     float pmf = 1.f - p_infinite;
     uint32_t k = 0;
     for (int level = 0; level < kLightTrailLevels; ++level) {
-      float imp[kLightBvhWidth];
+      float imp[kLightBvhWidth], c[kLightBvhWidth];  // c: where each child's stretch of [0, total) starts
       importances(nodes[k], ctx, imp);
       float total = 0.f;
-      for (int i = 0; i < kLightBvhWidth; ++i) total += imp[i];
+      for (int i = 0; i < kLightBvhWidth; ++i) c[i] = total, total += imp[i];
       if (!(total > 0.f)) return {};
-      // The child whose stretch of [0, total) holds u·total: the last with
-      // importance starting at or below it (the first such, if rounding
-      // puts u·total below every start).
+      // The child whose stretch holds u·total: the last with importance
+      // starting at or below it (the first with importance, if rounding puts
+      // u·total below every start). Each lane's test stands alone, so the
+      // compiler selects (a branch per lane would be a coin toss).
       const float t = u * total;
-      int j = -1;
-      float start = 0.f, chosen = 0.f, c = 0.f;
-      for (int i = 0; i < kLightBvhWidth; ++i) {  // selects, not branches: the choice is a coin toss
-        const bool take = (imp[i] > 0.f) & ((j < 0) | (c <= t));
-        j = take ? i : j;
-        start = take ? c : start;
-        chosen = take ? imp[i] : chosen;
-        c += imp[i];
+      int j = -1, first = -1;
+      for (int i = 0; i < kLightBvhWidth; ++i) {
+        j = (imp[i] > 0.f) & (c[i] <= t) ? i : j;
+        first = imp[kLightBvhWidth - 1 - i] > 0.f ? kLightBvhWidth - 1 - i : first;
       }
+      j = j >= 0 ? j : first;
+      const float start = c[j], chosen = imp[j];
       pmf *= chosen / total;
       u = min((t - start) / chosen, kOneMinusEpsilon);
       const uint32_t child = nodes[k].child[j];

@@ -24,8 +24,10 @@ struct RenderSettings {
   // Splatting by default: 2-3x less variance per pixel than filter sampling
   // for the tent and gaussian (bench/RESULTS.md).
   Reconstruction reconstruction = Reconstruction::Splat;
-  // Power by default: it measured the more efficient on bench/manylight.
-  LightSamplerType light_sampler = LightSamplerType::Power;
+  // The light BVH by default, as pbrt-v4 and Cycles: 20-80x power's
+  // efficiency where lights are spread wide, 0.6-2.3x in a room of lights
+  // all about as far, 0.8-22x with a few lights (bench/RESULTS.md).
+  LightSamplerType light_sampler = LightSamplerType::Bvh;
   // A constant environment sampled where it is seen from (light/env_guide.h):
   // 2.6x less noise for 1.2x the time indoors under a sky (bench/RESULTS.md),
   // nothing changed where there is no constant environment.
