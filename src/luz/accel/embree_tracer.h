@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cmath>
+#include <cstring>
 
 #include <embree3/rtcore.h>
 
@@ -89,16 +90,24 @@ struct EmbreeTracer {
   // finite and at most FLT_LARGE (1.844e18) in magnitude, tmax not NaN. Its
   // debug assertions abort on anything else, so such a ray (a NaN from
   // degenerate input, or a point beyond the range) is reported as a miss.
-  static bool embree_valid(const Ray& ray) {
+  // Checked on Embree's filled-in ray: org and dir are each four aligned
+  // floats there (tnear and time, 0, fill the fourth lanes), so two vector
+  // compares replace six scalar ones.
+  static bool embree_valid(const RTCRay& r) {
+    using F4 = float __attribute__((vector_size(16)));
+    using I4 = int32_t __attribute__((vector_size(16)));
     constexpr float kLarge = 1.844e18f;
-    const float c[6] = {ray.o.x, ray.o.y, ray.o.z, ray.d.x, ray.d.y, ray.d.z};
-    bool ok = !std::isnan(ray.tmax);
-    for (float x : c) ok &= std::fabs(x) <= kLarge;  // false for NaN too; no branch per component
-    return ok;
+    constexpr I4 kAbs = {0x7fffffff, 0x7fffffff, 0x7fffffff, 0x7fffffff};
+    constexpr F4 kLarge4 = {kLarge, kLarge, kLarge, kLarge};
+    F4 o, d;
+    std::memcpy(&o, &r.org_x, sizeof o);
+    std::memcpy(&d, &r.dir_x, sizeof d);
+    // |x| <= kLarge: false for NaN too.
+    const I4 ok = ((F4)((I4)o & kAbs) <= kLarge4) & ((F4)((I4)d & kAbs) <= kLarge4);
+    return ((ok[0] & ok[1]) & (ok[2] & ok[3])) != 0 && !std::isnan(r.tfar);
   }
 
   bool intersect(const Ray& ray, Hit& hit) const {
-    if (!embree_valid(ray)) return false;
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRayHit rh;
@@ -115,6 +124,7 @@ struct EmbreeTracer {
     rh.ray.time = 0.f;
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    if (!embree_valid(rh.ray)) return false;
     rtcIntersect1(scene, &ctx, &rh);
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return false;
     hit.t = rh.ray.tfar;
@@ -136,7 +146,6 @@ struct EmbreeTracer {
   }
 
   bool occluded(const Ray& ray) const {
-    if (!embree_valid(ray)) return true;  // no light along a ray that cannot be traced
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     RTCRay r;
@@ -151,6 +160,7 @@ struct EmbreeTracer {
     r.mask = ~0u;
     r.flags = 0;
     r.time = 0.f;
+    if (!embree_valid(r)) return true;  // no light along a ray that cannot be traced
     rtcOccluded1(scene, &ctx, &r);
     return r.tfar < 0.f;
   }

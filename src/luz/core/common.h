@@ -21,6 +21,12 @@
 #else
 #define LUZ_FORCE_INLINE inline __attribute__((always_inline))
 #endif
+// The same for a lambda (after its parameter list), where nvcc takes none.
+#if defined(__CUDACC__)
+#define LUZ_LAMBDA_FORCE_INLINE
+#else
+#define LUZ_LAMBDA_FORCE_INLINE __attribute__((always_inline))
+#endif
 // Code paths the CPU's hot loops should call rather than inline (a rarely
 // chosen variant that would bloat them); inlined on the GPU.
 #if defined(__CUDA_ARCH__)

@@ -156,7 +156,10 @@ LUZ_INLINE PathState path_start(const Ray& ray) {
 // shade kernel.
 // `u`: this vertex's draw_vertex_random.
 // `Probe`: bench/efficiency's counters (none in a normal render).
-template <class Probe = NoPathProbe>
+// `kMaps`: false where no material has a normal or bump map
+// (MaterialsView::mapped): the map's test and frame code leave the path
+// loop, whose registers they crowd (the bundled box: 3% of its instructions).
+template <class Probe = NoPathProbe, bool kMaps = true>
 LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool found, const Hit& hit, Sampler& sampler,
                                   const IntegratorParams& params, const VertexRandom& u, ShadowQuery& sq) {
   sq.active = false;
@@ -220,7 +223,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
 
     Bsdf textured{Uninitialized{}};  // written only for a textured material
     const Bsdf& bsdf = scene.bsdf(it, hit, textured);
-    const Frame frame = scene.shading_frame(it, hit);  // a normal or bump map perturbs it and it.ns
+    const Frame frame = scene.shading_frame<kMaps>(it, hit);  // a normal or bump map perturbs it and it.ns
     Vec3 wo = frame.to_local(-ray.d);
     // Rays leaving this vertex start on the side of the geometric surface
     // they go to: the viewer's side (n_out) for reflection, the other for
@@ -335,9 +338,9 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
 // ray needs only the BSDF sample, so the query starts while next-event
 // estimation's longer chain (square roots, divisions, the MIS weight) is
 // still completing (luz_bench, bundled box, 1 thread: paired ratio 0.52 ->
-// 0.55). Returns the radiance; `rays` counts every query. `Probe`: as
-// path_vertex's.
-template <class Tracer, class Probe = NoPathProbe>
+// 0.55). Returns the radiance; `rays` counts every query. `Probe` and
+// `kMaps`: as path_vertex's.
+template <class Tracer, class Probe = NoPathProbe, bool kMaps = true>
 LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray ray, Sampler& sampler,
                               const IntegratorParams& params, uint64_t& rays) {
   PathState st = path_start(ray);
@@ -365,7 +368,7 @@ LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray 
     if (found) scene.prefetch_texture(st.ray, hit);
     trace_shadow();
     if constexpr (Probe::kEnabled) sq_length = st.depth + 1;
-    path_vertex<Probe>(scene, st, found, hit, sampler, params, u, sq);
+    path_vertex<Probe, kMaps>(scene, st, found, hit, sampler, params, u, sq);
   }
   trace_shadow();
   return st.L;

@@ -85,7 +85,7 @@ LUZ_CPU_NOINLINE LightSample sample_li_outlined(const M& m, LightSampleContext c
 }
 
 LUZ_FORCE_INLINE LightSample sample_li(const Light& l, const LightSampleContext& ctx, Vec2 u, const LightData& data) {
-  return visit(l, [&](const auto& m) {
+  return visit(l, [&](const auto& m) LUZ_LAMBDA_FORCE_INLINE {
     using M = std::decay_t<decltype(m)>;
     if constexpr (std::is_same_v<M, TriangleLight> || std::is_same_v<M, ParallelogramLight>) return m.sample_li(ctx, u, data);
     else return sample_li_outlined(m, ctx, u, data);

@@ -46,6 +46,7 @@ struct Material {
   float alpha_cutoff = -1.f;
 
   LUZ_INLINE bool masked() const { return opacity_texture >= 0 || opacity < 1.f; }
+  LUZ_INLINE bool mapped() const { return normal_map >= 0 || bump_map >= 0; }
 
   // Mitsuba's normalmap / bumpmap around the whole material (the textures,
   // or -1; at most one is set): SceneView::shading_frame perturbs the
@@ -59,6 +60,7 @@ struct MaterialsView {
   const TextureBinding* bindings = nullptr;
   uint32_t count = 0;
   bool masked = false;  // some material has an opacity below 1 (Material::masked): tracers run the alpha test
+  bool mapped = false;  // some material has a normal or bump map (Material::mapped)
 
   // The BSDF of material m at a surface point of texture coordinates uv.
   LUZ_INLINE Bsdf bsdf(uint32_t m, const TextureView& tex, Vec2 uv) const {

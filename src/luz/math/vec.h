@@ -75,8 +75,8 @@ struct Frame {
     f.n = n;
     return f;
   }
-  LUZ_INLINE Vec3 to_local(Vec3 v) const { return {dot(v, s), dot(v, t), dot(v, n)}; }
-  LUZ_INLINE Vec3 to_world(Vec3 v) const { return s * v.x + t * v.y + n * v.z; }
+  LUZ_FORCE_INLINE Vec3 to_local(Vec3 v) const { return {dot(v, s), dot(v, t), dot(v, n)}; }
+  LUZ_FORCE_INLINE Vec3 to_world(Vec3 v) const { return s * v.x + t * v.y + n * v.z; }
 };
 
 struct Ray {

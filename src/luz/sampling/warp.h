@@ -9,7 +9,7 @@ namespace luz {
 // sin and cos of x for |x| ≤ π/4, by the minimax polynomials of Cephes'
 // sinf/cosf (S. Moshier) for that interval: within 2 ulp, and inline (no
 // libm call, no range reduction). tests/test_warp.cpp compares with libm.
-LUZ_INLINE Vec2 cos_sin_quarter(float x) {
+LUZ_FORCE_INLINE Vec2 cos_sin_quarter(float x) {
   float x2 = x * x;
   float s = x + x * x2 * (-1.6666654611e-1f + x2 * (8.3321608736e-3f + x2 * -1.9515295891e-4f));
   float c = 1.f - 0.5f * x2 + x2 * x2 * (4.166664568298827e-2f + x2 * (-1.388731625493765e-3f + x2 * 2.443315711809948e-5f));

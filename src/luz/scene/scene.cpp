@@ -433,7 +433,10 @@ SceneView Scene::view() const {
   v.materials.list = materials.data();
   v.materials.bindings = texture_bindings.data();
   v.materials.count = uint32_t(materials.size());
-  for (const Material& m : materials) v.materials.masked |= m.masked();
+  for (const Material& m : materials) {
+    v.materials.masked |= m.masked();
+    v.materials.mapped |= m.mapped();
+  }
   v.textures.list = textures.data();
   v.textures.texels8 = texels8.data();
   v.textures.texelsf = texelsf.data();

@@ -146,7 +146,10 @@ struct SceneView {
   // which the integrator then evaluates the BSDF as Mitsuba's normalmap and
   // bumpmap do. Other materials pay one load and one branch. Inlined: the
   // path loop's values live across an out-of-line call would spill.
+  // kMaps false: the scene has no map (MaterialsView::mapped), no test.
+  template <bool kMaps = true>
   LUZ_FORCE_INLINE Frame shading_frame(Interaction& it, const Hit& hit) const {
+    if constexpr (!kMaps) return Frame::from_normal(it.ns);
     const Material& m = materials.list[it.material];
     if (__builtin_expect((m.normal_map & m.bump_map) < 0, 1)) return Frame::from_normal(it.ns);  // neither map (both -1)
     const Frame f = perturbed_frame(it.p, it.ng, it.ns, hit, m);

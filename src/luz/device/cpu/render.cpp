@@ -8,11 +8,10 @@
 #include <atomic>
 #include <vector>
 
-#include "luz/accel/embree_tracer.h"
+#include "luz/device/cpu/env_guide.h"
+#include "luz/device/cpu/path_li.h"
 #include "luz/device/progress.h"
 #include "luz/film/splat.h"
-#include "luz/integrator/path.h"
-#include "luz/device/cpu/env_guide.h"
 
 namespace luz {
 
@@ -77,6 +76,13 @@ struct CpuDevice::Impl {
     }
   }
 
+  // One path's radiance, by the path loop without the map code where the
+  // scene has no normal or bump map.
+  Color li(const Ray& ray, Sampler& sampler, uint64_t& rays) const {
+    if (view.materials.mapped) return path_li_cpu(view, tracer, ray, sampler, rs.integrator, rays);
+    return path_li_cpu_unmapped(view, tracer, ray, sampler, rs.integrator, rays);
+  }
+
   // The tile size for a pass of n samples over `rect`, for `want` work items.
   int tile(const PixelRect& rect, uint64_t want, uint32_t n) const {
     if (!splat) return kTile;
@@ -119,7 +125,7 @@ struct CpuDevice::Impl {
           for (uint32_t k = 0; k < n; ++k) {
             sampler.set_sample(c0 + k);
             const Ray ray = camera_sample_at(view.camera, x, y, sampler, offset[k]);
-            out[k] = path_li(view, tracer, ray, sampler, rs.integrator, rays);
+            out[k] = li(ray, sampler, rays);
           }
         }
       for (int y = y0; y < y1; ++y)
@@ -143,7 +149,7 @@ struct CpuDevice::Impl {
     for (uint32_t s = a; s < b; ++s) {
       sampler.set_sample(s);
       const Ray ray = camera_sample(view.camera, x, y, sampler, rs.filter);
-      sink(path_li(view, tracer, ray, sampler, rs.integrator, rays));
+      sink(li(ray, sampler, rays));
     }
   }
 };
