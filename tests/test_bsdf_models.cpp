@@ -18,6 +18,7 @@
 
 #include "chi2.h"
 #include "luz/bsdf/bsdf.h"
+#include "sanitizer.h"
 
 using namespace luz;
 
@@ -191,7 +192,7 @@ TEST(BsdfModels, SamplingMatchesPdfChi2) {
         return s.valid && !s.delta;  // delta lobes: not part of pdf(), they count as failures
       };
       auto pdf = [&](chi2::D3 w) { return double(c.b.pdf(wo, chi2::to_vec3(w))); };
-      chi2::Outcome o = chi2::run_sphere(g, kSamples, sample, pdf);
+      chi2::Outcome o = chi2::run_sphere(g, luz_test::sanitized_count(kSamples), sample, pdf);
       EXPECT_LE(o.mass, 1.0 + 1e-3) << c.name << " at " << deg << "°";
       EXPECT_TRUE(o.result.passes(kThreshold)) << c.name << " at " << deg << "°: " << o.describe(kThreshold);
       if (o.result.p_value < min_p) {
@@ -341,7 +342,7 @@ TEST(BsdfModels, EnergyConservation) {
   for (const E& e : cases)
     for (float deg : degs) tests += (deg >= 0.f || both_sides(e.b));
   const double z = chi2::normal_two_sided_quantile(2.0 * chi2::sidak(chi2::kAlpha, tests));  // one-sided
-  const uint64_t N = 100000;
+  const uint64_t N = luz_test::sanitized_count<uint64_t>(100000);
   uint64_t seed = 9000;
   for (const E& e : cases) {
     std::printf("%-40s", e.name.c_str());

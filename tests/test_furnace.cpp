@@ -33,6 +33,7 @@
 #include "luz/scene/scene.h"
 #include "furnace.h"
 #include "stat_helpers.h"
+#include "sanitizer.h"
 
 using namespace luz;
 using luz_test::sidak_z;
@@ -218,7 +219,7 @@ TEST(Furnace, PhongSphereMatchesDirectionalAlbedo) {
     for (IntegratorType t : kAll) {
       Bsdf b = Bsdf::make_phong({float(c.kd), float(c.kd), float(c.kd)}, {float(c.ks), float(c.ks), float(c.ks)},
                                 float(c.n));
-      Scene s = furnace_scene(b, t, 4096, 11);
+      Scene s = furnace_scene(b, t, luz_test::sanitized_count<uint32_t>(4096), 11);
       Film f = render(s);
       CheckResult r = check(f, e.value, e.bias, e.valid, kFamilyAlpha);
       std::printf(

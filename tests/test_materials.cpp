@@ -44,6 +44,7 @@
 #include "luz/scene/scene.h"
 #include "furnace.h"
 #include "stat_helpers.h"
+#include "sanitizer.h"
 
 using namespace luz;
 using luz_test::sidak_z;
@@ -332,7 +333,8 @@ TEST(Materials, RoughConductorFurnaceMatchesSingleScatteringAlbedo) {
     for (IntegratorType t : kAll) {
       Bsdf b = Bsdf::make_rough_conductor(c.ggx ? MicrofacetType::GGX : MicrofacetType::Beckmann, float(c.alpha),
                                           float(c.alpha), {0, 0, 0}, {1, 1, 1});
-      Film f = render(furnace_scene(b, t, t == IntegratorType::Light ? 4096 : 1024, 13));
+      const uint32_t spp = luz_test::sanitized_count<uint32_t>(t == IntegratorType::Light ? 4096 : 1024);
+      Film f = render(furnace_scene(b, t, spp, 13));
       CheckResult r = check(f, exp, bias, valid, kFamilyAlpha);
       std::printf("[furnace roughconductor %s alpha %.1f %-5s] albedo min %.3f, table error %.1e, worst pixel z %.2f "
                   "(threshold %.2f), image-mean z %.2f\n",
@@ -394,7 +396,7 @@ TEST(Materials, EstimatorsAgreeWithEveryLobeMix) {
       s.camera.tan_half_x = s.camera.tan_half_y = 0.4f;
       s.camera.width = s.camera.height = res;
       s.settings.sampler = SamplerType::Independent;
-      s.settings.spp = cs.spp;
+      s.settings.spp = luz_test::sanitized_count(cs.spp);
       s.settings.seed = seed;
       s.settings.filter = FilterKind::Box;
       s.settings.integrator.type = t;

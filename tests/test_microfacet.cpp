@@ -15,6 +15,7 @@
 
 #include "chi2.h"
 #include "luz/bsdf/microfacet.h"
+#include "sanitizer.h"
 
 using namespace luz;
 
@@ -140,7 +141,7 @@ TEST(Microfacet, VisibleNormalSamplingChi2) {
           return true;
         };
         auto pdf = [&](chi2::D3 m) { return double(d.pdf_visible(w, chi2::to_vec3(m))); };
-        chi2::Outcome o = chi2::run_sphere(g, kSamples, sample, pdf);
+        chi2::Outcome o = chi2::run_sphere(g, luz_test::sanitized_count(kSamples), sample, pdf);
         // (∫pdf = 1 is SmithG1MatchesProjectedArea's business: the bins'
         // cubature is cut by the visibility kink and is good to ~1e-4 only.)
         worst_mass = std::max(worst_mass, std::fabs(o.mass - 1.0));
