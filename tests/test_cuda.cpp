@@ -272,7 +272,9 @@ PassParams host_pass_params(const Scene& scene, const SceneView& view, const Bvh
 
 // render_cuda's pass loop, on the host: the same PassParams over host
 // pointers, render_pixel_pass for every pixel, accumulate_pass per pass.
-Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_out = nullptr, uint32_t threads = 1) {
+// full: the kFull variant whatever the scene (else the kernels' choice).
+Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_out = nullptr, uint32_t threads = 1,
+                    bool full = false) {
   const SceneView view = scene.view();
   const Bvh bvh = build_bvh(view);
   const Camera& cam = view.camera;
@@ -298,6 +300,7 @@ Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_ou
   Film film(cam.width, cam.height);
   std::atomic<uint64_t> rays{0};
   uint64_t discarded = 0;
+  const bool plain = !full && pass_is_plain(p);  // the kernels' choice of variant (kernels.cu)
   for (uint32_t first = 0; first < p.sampler.spp; first += per_pass) {
     p.first_sample = first;
     p.num_samples = std::min(per_pass, p.sampler.spp - first);
@@ -310,7 +313,9 @@ Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_ou
         uint64_t n = 0;
         for (int y = r.begin(); y != r.end(); ++y)
           for (int x = 0; x < cw; ++x)
-            for (uint32_t t = 0; t < threads; ++t) n += render_square_pass(p, uint32_t(x), uint32_t(y), t);
+            for (uint32_t t = 0; t < threads; ++t)
+              n += plain ? render_square_pass<false>(p, uint32_t(x), uint32_t(y), t)
+                         : render_square_pass<true>(p, uint32_t(x), uint32_t(y), t);
         rays += n;
       });
       tbb::parallel_for(tbb::blocked_range<int>(0, cam.height), [&](const tbb::blocked_range<int>& r) {
@@ -322,7 +327,9 @@ Film passes_on_host(const Scene& scene, uint32_t per_pass, RenderStats* stats_ou
         uint64_t n = 0;
         for (int y = r.begin(); y != r.end(); ++y)
           for (int x = 0; x < cam.width; ++x)
-            for (uint32_t t = 0; t < threads; ++t) n += render_pixel_pass(p, uint32_t(x), uint32_t(y), t);
+            for (uint32_t t = 0; t < threads; ++t)
+              n += plain ? render_pixel_pass<false>(p, uint32_t(x), uint32_t(y), t)
+                         : render_pixel_pass<true>(p, uint32_t(x), uint32_t(y), t);
         rays += n;
       });
     }
@@ -558,6 +565,12 @@ TEST(CudaBatchOnHost, TraceRayItemsMatchEmbree) {
   size_t differ = 0;
   for (size_t i = 0; i < rays.size(); ++i) differ += hit[i] != expected[i];
   EXPECT_LE(differ, rays.size() / 1000) << "hit/miss answers differing from Embree's";
+  // The plain traversal (no instances, no masks: this scene) answers exactly alike.
+  ASSERT_TRUE(p.tracer.plain());
+  std::vector<uint8_t> plain_hit(rays.size());
+  p.hit = plain_hit.data();
+  for (uint32_t i = 0; i < p.n; ++i) trace_ray_item<false>(p, i);
+  EXPECT_EQ(plain_hit, hit);
 }
 
 // The pass logic over Luz's BVH renders every BSDF model's scene as the CPU
@@ -661,6 +674,7 @@ Film wavefront_on_host(const Scene& scene, uint32_t per_pass, uint64_t* rays_out
   w.shadow = shadow.data();
   Film film(cam.width, cam.height);
   uint64_t rays = 0;
+  const bool plain = pass_is_plain(w.pass);  // the kernels' choice of variant
   for (uint32_t first = 0; first < w.pass.sampler.spp; first += per_pass) {
     w.pass.first_sample = first;
     w.pass.num_samples = std::min(per_pass, w.pass.sampler.spp - first);
@@ -668,9 +682,9 @@ Film wavefront_on_host(const Scene& scene, uint32_t per_pass, uint64_t* rays_out
     for (uint32_t i = 0; i < w.num_paths; ++i) wf_generate(w, i);
     for (;;) {
       uint32_t alive = 0;
-      for (uint32_t i = 0; i < w.num_paths; ++i) rays += wf_intersect(w, i);
-      for (uint32_t i = 0; i < w.num_paths; ++i) alive += wf_shade(w, i) ? 1 : 0;
-      for (uint32_t i = 0; i < w.num_paths; ++i) rays += wf_shadow(w, i);
+      for (uint32_t i = 0; i < w.num_paths; ++i) rays += plain ? wf_intersect<false>(w, i) : wf_intersect<true>(w, i);
+      for (uint32_t i = 0; i < w.num_paths; ++i) alive += (plain ? wf_shade<false>(w, i) : wf_shade<true>(w, i)) ? 1 : 0;
+      for (uint32_t i = 0; i < w.num_paths; ++i) rays += plain ? wf_shadow<false>(w, i) : wf_shadow<true>(w, i);
       if (alive == 0) break;
     }
     for (uint32_t px = 0; px < pixels; ++px) wf_accumulate(w, px);
@@ -861,6 +875,27 @@ TEST(CudaPassOnHost, InstancedSceneMatchesCpu) {
   expect_same_samples(passes_on_host(s, 1), cpu(s), 2e-3, "host passes vs CPU, instanced, 1 spp");
   Scene a = instanced_cornell(48, 64, 48), b = instanced_cornell(48, 64, 49);
   expect_agree(passes_on_host(a, 16), cpu(b), "host passes vs CPU, instanced, 64 spp, independent seeds");
+}
+
+// The plain variant (pass.h) takes the scenes without instances, masked
+// materials and normal/bump maps, and renders exactly the full one's samples.
+TEST(CudaPassOnHost, PlainVariantRendersAsTheFullOne) {
+  auto plain = [](const Scene& s) {
+    const SceneView v = s.view();
+    const Bvh b = build_bvh(v);
+    return pass_is_plain(host_pass_params(s, v, b));
+  };
+  EXPECT_TRUE(plain(cornell(16, 1, 1)));
+  EXPECT_TRUE(plain(textured_cornell(16, 1, 1)));
+  EXPECT_TRUE(plain(cornell_splat(16, 1, 1)));
+  EXPECT_FALSE(plain(masked_cornell(16, 1, 1)));
+  EXPECT_FALSE(plain(normal_mapped_cornell(16, 1, 1)));
+  EXPECT_FALSE(plain(instanced_cornell(16, 1, 1)));
+  for (const Scene& s : {textured_cornell(32, 4, 3), cornell_splat(24, 4, 4)}) {
+    const Film a = passes_on_host(s, 2), b = passes_on_host(s, 2, nullptr, 1, true);
+    EXPECT_EQ(a.sum, b.sum);
+    EXPECT_EQ(a.count, b.count);
+  }
 }
 
 // ---------------------------------------------------------------- on a GPU

@@ -254,7 +254,11 @@ LUZ_INLINE bool bvh_intersect_prim(const BvhGeometry& g, const BvhRay& r, uint32
 // Stack-based traversal shared by both queries. AnyHit: return at the first
 // primitive hit (ANY HIT terminating the ray); otherwise shrink tmax on every
 // hit and keep the closest (CLOSEST HIT). Instances: see the top of the file.
-template <bool AnyHit>
+// kFull false: for a tree without instances or masked materials
+// (BvhTracer::plain), the loop without their code: in CUDA the second level's state
+// and the alpha test's texture lookup would hold registers all through the
+// loop (sm_90: 46 registers for the ray-tracing kernel against 85).
+template <bool AnyHit, bool kFull = true>
 LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const BvhInstancing& inst, const Ray& ray,
                              Hit& hit) {
   if (bvh.num_nodes == 0) return false;
@@ -267,7 +271,7 @@ LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const Bvh
   int instance_sp = -1;  // the stack depth at which the instance was entered
   float tmax = ray.tmax;
   bool found = false;
-  uint32_t stack[kBvhTraversalStackSize];
+  uint32_t stack[kFull ? kBvhTraversalStackSize : kBvhStackSize];
   int sp = 0;
   uint32_t cur = 0;  // the root is an inner node
   for (;;) {
@@ -308,7 +312,7 @@ LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const Bvh
       bool entered = false;
       for (uint32_t i = 0; i < count; ++i) {
         const uint32_t ref = prims[first + i];
-        if ((ref & (kBvhSphereBit | kBvhInstanceBit)) == kBvhInstanceBit) {
+        if (kFull && (ref & (kBvhSphereBit | kBvhInstanceBit)) == kBvhInstanceBit) {
           const uint32_t k = ref & ~kBvhInstanceBit;
           const Instance& in = inst.instances[k];
           const BvhObjectTree& o = inst.objects[in.object];
@@ -330,7 +334,7 @@ LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const Bvh
         }
         Hit h;
         if (bvh_intersect_prim(g, r, ref, tmax, h, tri_base) &&
-            (!g.opacity.materials || g.opacity.keeps(r.o, r.d, h))) {
+            (!kFull || !g.opacity.materials || g.opacity.keeps(r.o, r.d, h))) {
           h.inst = in_instance;
           hit = h;
           if (AnyHit) return true;
@@ -340,7 +344,7 @@ LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const Bvh
       }
       if (entered) continue;
     }
-    if (sp == instance_sp) {  // the object is done: back to the world's tree and ray
+    if (kFull && sp == instance_sp) {  // the object is done: back to the world's tree and ray
       r = world;
       nodes = bvh.nodes;
       prims = bvh.prims;
@@ -377,6 +381,21 @@ struct BvhTracer {
     return bvh_closest_hit(bvh, geometry, instancing, ray, hit);
   }
   LUZ_INLINE bool occluded(const Ray& ray) const { return bvh_any_hit(bvh, geometry, instancing, ray); }
+  // Neither instances nor masked materials: BvhPlainTracer answers alike.
+  LUZ_INLINE bool plain() const { return instancing.count == 0 && !geometry.opacity.materials; }
+};
+
+// A plain() BvhTracer's queries through the traversal without instances and
+// alpha tests (bvh_traverse's kFull).
+struct BvhPlainTracer {
+  const BvhTracer& t;
+  LUZ_INLINE bool intersect(const Ray& ray, Hit& hit) const {
+    return bvh_traverse<false, false>(t.bvh, t.geometry, t.instancing, ray, hit);
+  }
+  LUZ_INLINE bool occluded(const Ray& ray) const {
+    Hit h;
+    return bvh_traverse<true, false>(t.bvh, t.geometry, t.instancing, ray, h);
+  }
 };
 
 }  // namespace luz

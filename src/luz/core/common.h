@@ -21,11 +21,16 @@
 #else
 #define LUZ_FORCE_INLINE inline __attribute__((always_inline))
 #endif
-// The same for a lambda (after its parameter list), where nvcc takes none.
-#if defined(__CUDACC__)
-#define LUZ_LAMBDA_FORCE_INLINE
-#else
+// The same for a lambda (after its parameter list).
 #define LUZ_LAMBDA_FORCE_INLINE __attribute__((always_inline))
+// For a function template: forced inline in CUDA, as the CPU's compiler
+// chooses elsewhere. The path loop: the device's inliner otherwise leaves it
+// out of the kernels (an ABI call, its state through local memory), while on
+// the CPU its translation units are chosen (device/cpu/path_li.cpp).
+#if defined(__CUDACC__)
+#define LUZ_DEVICE_FORCE_INLINE LUZ_HOST_DEVICE __forceinline__
+#else
+#define LUZ_DEVICE_FORCE_INLINE
 #endif
 // Code paths the CPU's hot loops should call rather than inline (a rarely
 // chosen variant that would bloat them); inlined on the GPU.

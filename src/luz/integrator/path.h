@@ -341,7 +341,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
 // 0.55). Returns the radiance; `rays` counts every query. `Probe` and
 // `kMaps`: as path_vertex's.
 template <class Tracer, class Probe = NoPathProbe, bool kMaps = true>
-LUZ_HOST_DEVICE Color path_li(const SceneView& scene, const Tracer& tracer, Ray ray, Sampler& sampler,
+LUZ_DEVICE_FORCE_INLINE Color path_li(const SceneView& scene, const Tracer& tracer, Ray ray, Sampler& sampler,
                               const IntegratorParams& params, uint64_t& rays) {
   PathState st = path_start(ray);
   ShadowQuery sq;  // the previous vertex's

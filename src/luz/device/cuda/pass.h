@@ -30,6 +30,13 @@
 // neighbours' and sums them as render_pixel_pass does, one thread per pixel
 // (one output slice). The samples are the CPU's (device/cpu splats the same
 // squares at the same offsets and gathers in the same order).
+//
+// Two variants of each (kFull): the full one, and one for scenes without
+// instances, masked materials or normal/bump maps (pass_is_plain) that
+// leaves their code out of the traversal and the path loop. A kernel holds
+// the registers of its most demanding point, taken or not, so code a scene
+// never runs still costs it registers, spills and resident threads
+// (bench/RESULTS.md, 2026-12-04: the bundled box 2.1x faster on an H200).
 #pragma once
 
 #include <cstddef>
@@ -92,10 +99,22 @@ struct PassSums {
   }
 };
 
+// The scene has no instance, masked material or normal/bump map: the
+// passes' kFull = false variants render it (the same samples).
+LUZ_INLINE bool pass_is_plain(const PassParams& p) { return p.tracer.plain() && !p.scene.materials.mapped; }
+
+// One path through the pass's tracer, in the variant kFull chooses.
+template <bool kFull>
+LUZ_FORCE_INLINE Color pass_path(const PassParams& p, const Ray& ray, Sampler& sampler, uint64_t& rays) {
+  if constexpr (kFull) return path_li(p.scene, p.tracer, ray, sampler, p.integrator, rays);
+  else return path_li<BvhPlainTracer, NoPathProbe, false>(p.scene, BvhPlainTracer{p.tracer}, ray, sampler, p.integrator, rays);
+}
+
 // Thread t's share of pixel (x, y)'s pass, exactly render_cpu's per-pixel
 // loop: Sampler started at the pixel, set_sample per sample, camera_sample,
-// then path_li. Returns the rays traced.
-LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t y, uint32_t t = 0) {
+// then path_li. Returns the rays traced. kFull: see the top of the file.
+template <bool kFull = true>
+LUZ_FORCE_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t y, uint32_t t = 0) {
   const Camera& cam = p.scene.camera;
   const uint32_t T = p.threads_per_pixel;
   const uint32_t k0 = uint32_t(uint64_t(p.num_samples) * t / T), k1 = uint32_t(uint64_t(p.num_samples) * (t + 1) / T);
@@ -106,7 +125,7 @@ LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t 
   for (uint32_t k = k0; k < k1; ++k) {
     sampler.set_sample(p.first_sample + k);
     const Ray ray = camera_sample(cam, x, y, sampler, p.filter);
-    sums.add(path_li(p.scene, p.tracer, ray, sampler, p.integrator, rays));
+    sums.add(pass_path<kFull>(p, ray, sampler, rays));
   }
   sums.write(p.out, size_t(t) * size_t(cam.width) * size_t(cam.height) + size_t(y) * size_t(cam.width) + x);
   return rays;
@@ -115,7 +134,8 @@ LUZ_INLINE uint64_t render_pixel_pass(const PassParams& p, uint32_t x, uint32_t 
 // Splatting, first kernel: thread t's share of square (sx, sy) of the
 // bordered image (image pixel (sx - reach, sy - reach)), as the CPU's
 // take_splat renders it. Returns the rays traced.
-LUZ_INLINE uint64_t render_square_pass(const PassParams& p, uint32_t sx, uint32_t sy, uint32_t t = 0) {
+template <bool kFull = true>
+LUZ_FORCE_INLINE uint64_t render_square_pass(const PassParams& p, uint32_t sx, uint32_t sy, uint32_t t = 0) {
   const Camera& cam = p.scene.camera;
   const int x = int(sx) - p.reach, y = int(sy) - p.reach;
   const size_t cw = size_t(cam.width) + 2 * size_t(p.reach);
@@ -128,7 +148,7 @@ LUZ_INLINE uint64_t render_square_pass(const PassParams& p, uint32_t sx, uint32_
   for (uint32_t k = k0; k < k1; ++k) {
     sampler.set_sample(p.first_sample + k);
     const Ray ray = camera_sample_at(cam, x, y, sampler, splat_offset(p.sampler, p.first_sample + k));
-    out[k] = path_li(p.scene, p.tracer, ray, sampler, p.integrator, rays);
+    out[k] = pass_path<kFull>(p, ray, sampler, rays);
   }
   return rays;
 }

@@ -45,29 +45,41 @@ LUZ_INLINE void wf_generate(const WavefrontParams& p, uint32_t i) {
   p.shadow[i].active = false;
 }
 
+// The stages below come in pass.h's two variants (kFull), chosen as the
+// megakernel's, so both run the same vertex code.
+
 // Returns the rays traced (0 or 1).
+template <bool kFull = true>
 LUZ_INLINE uint32_t wf_intersect(const WavefrontParams& p, uint32_t i) {
   if (!p.state[i].alive) return 0;
   Hit h;
-  p.found[i] = p.pass.tracer.intersect(p.state[i].ray, h) ? 1 : 0;
+  bool found;
+  if constexpr (kFull) found = p.pass.tracer.intersect(p.state[i].ray, h);
+  else found = BvhPlainTracer{p.pass.tracer}.intersect(p.state[i].ray, h);
+  p.found[i] = found ? 1 : 0;
   p.hit[i] = h;
   return 1;
 }
 
 // Returns whether path i lives on.
+template <bool kFull = true>
 LUZ_INLINE bool wf_shade(const WavefrontParams& p, uint32_t i) {
   PathState& st = p.state[i];
   if (!st.alive) return false;
-  path_vertex(p.pass.scene, st, p.found[i] != 0, p.hit[i], p.sampler[i], p.pass.integrator,
-              draw_vertex_random(p.sampler[i], st.depth, p.pass.integrator), p.shadow[i]);
+  path_vertex<NoPathProbe, kFull>(p.pass.scene, st, p.found[i] != 0, p.hit[i], p.sampler[i], p.pass.integrator,
+                                  draw_vertex_random(p.sampler[i], st.depth, p.pass.integrator), p.shadow[i]);
   return st.alive;
 }
 
 // Returns the rays traced (0 or 1).
+template <bool kFull = true>
 LUZ_INLINE uint32_t wf_shadow(const WavefrontParams& p, uint32_t i) {
   ShadowQuery& sq = p.shadow[i];
   if (!sq.active) return 0;
-  if (!p.pass.tracer.occluded(sq.ray)) p.state[i].L += sq.contrib;
+  bool blocked;
+  if constexpr (kFull) blocked = p.pass.tracer.occluded(sq.ray);
+  else blocked = BvhPlainTracer{p.pass.tracer}.occluded(sq.ray);
+  if (!blocked) p.state[i].L += sq.contrib;
   sq.active = false;
   return 1;
 }
