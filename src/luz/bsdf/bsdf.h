@@ -33,11 +33,11 @@
 #include "luz/math/vec.h"
 #include "luz/sampling/warp.h"
 
-// Bsdf's general case (every model but plain Lambert) stays out of line on
-// the CPU: inlined into the integrator, the dispatch over all models bloats
-// the path loop (measured: the Cornell box 4% slower once rough plastic joined
-// the dispatch, other models unchanged or faster). On the GPU it is inlined.
-#define LUZ_BSDF_GENERAL LUZ_CPU_NOINLINE
+// Bsdf's general case (every model but plain Lambert) stays out of line:
+// inlined into the integrator, the dispatch over all models bloats the path
+// loop (measured: the Cornell box 4% slower on the CPU once rough plastic
+// joined the dispatch; on the GPU, bench/RESULTS.md 2026-12-04).
+#define LUZ_BSDF_GENERAL LUZ_NOINLINE
 
 namespace luz {
 

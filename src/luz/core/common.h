@@ -32,6 +32,20 @@
 #else
 #define LUZ_DEVICE_FORCE_INLINE
 #endif
+// Out of line on both: a function with one copy that its callers call.
+#if defined(__CUDACC__)
+#define LUZ_NOINLINE LUZ_HOST_DEVICE __noinline__
+#else
+#define LUZ_NOINLINE LUZ_HOST_DEVICE __attribute__((noinline))
+#endif
+// Out of line in CUDA, inline on the CPU: code every kernel would otherwise
+// hold many copies of (a texture lookup at each textured parameter), whose
+// registers and instructions a kernel pays for wherever they sit, run or not.
+#if defined(__CUDACC__)
+#define LUZ_DEVICE_NOINLINE LUZ_HOST_DEVICE __noinline__
+#else
+#define LUZ_DEVICE_NOINLINE inline
+#endif
 // Code paths the CPU's hot loops should call rather than inline (a rarely
 // chosen variant that would bloat them); inlined on the GPU.
 #if defined(__CUDA_ARCH__)

@@ -204,8 +204,10 @@ struct TextureView {
     return tex.scale * bitmap(tex.bitmap, st) + tex.offset;
   }
 
-  // Texture t's linear RGB value at the surface point of texture coordinates uv.
-  LUZ_INLINE Color eval(uint32_t t, Vec2 uv) const {
+  // Texture t's linear RGB value at the surface point of texture coordinates
+  // uv (texture_eval: out of line on the GPU).
+  LUZ_INLINE Color eval(uint32_t t, Vec2 uv) const;
+  LUZ_INLINE Color eval_inline(uint32_t t, Vec2 uv) const {
     const Texture& tex = list[t];
     if (__builtin_expect(tex.type != TextureType::Mix, 1)) return leaf(tex, uv);
     const MixTexture& m = tex.mix;
@@ -268,6 +270,11 @@ struct TextureView {
 #endif
   }
 };
+
+// TextureView::eval's one copy in a CUDA kernel (inline on the CPU); the
+// view by value, so a kernel's parameters need no local copy for an address.
+LUZ_DEVICE_NOINLINE Color texture_eval(TextureView v, uint32_t t, Vec2 uv) { return v.eval_inline(t, uv); }
+LUZ_INLINE Color TextureView::eval(uint32_t t, Vec2 uv) const { return texture_eval(*this, t, uv); }
 
 // A texture-or-constant colour: `value` where texture < 0 (and, for a
 // texture, its mean: what lobe-sampling weights use, as Mitsuba's mean()).
