@@ -23,10 +23,10 @@
 #endif
 // The same for a lambda (after its parameter list).
 #define LUZ_LAMBDA_FORCE_INLINE __attribute__((always_inline))
-// For a function template: forced inline in CUDA, as the CPU's compiler
-// chooses elsewhere. The path loop: the device's inliner otherwise leaves it
-// out of the kernels (an ABI call, its state through local memory), while on
-// the CPU its translation units are chosen (device/cpu/path_li.cpp).
+// Forced inline in CUDA, the compiler's choice on the CPU (for function
+// templates, which need no `inline`). The path loop: nvcc's inliner would
+// leave it out of the kernels (an ABI call, its state through local
+// memory); on the CPU its translation units are chosen (device/cpu/path_li.cpp).
 #if defined(__CUDACC__)
 #define LUZ_DEVICE_FORCE_INLINE LUZ_HOST_DEVICE __forceinline__
 #else

@@ -36,7 +36,7 @@
 // leaves their code out of the traversal and the path loop. A kernel holds
 // the registers of its most demanding point, taken or not, so code a scene
 // never runs still costs it registers, spills and resident threads
-// (bench/RESULTS.md, 2026-12-04: the bundled box 2.1x faster on an H200).
+// (bench/RESULTS.md, 2026-12-04).
 #pragma once
 
 #include <cstddef>
