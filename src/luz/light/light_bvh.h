@@ -211,7 +211,7 @@ struct BvhLightSampler {
       const float t = u * total;
       int j = -1, first = -1;
       for (int i = 0; i < kLightBvhWidth; ++i) {
-        j = (imp[i] > 0.f) & (c[i] <= t) ? i : j;
+        j = ((imp[i] > 0.f) & (c[i] <= t)) ? i : j;
         first = imp[kLightBvhWidth - 1 - i] > 0.f ? kLightBvhWidth - 1 - i : first;
       }
       j = j >= 0 ? j : first;
