@@ -255,9 +255,10 @@ LUZ_INLINE bool bvh_intersect_prim(const BvhGeometry& g, const BvhRay& r, uint32
 // primitive hit (ANY HIT terminating the ray); otherwise shrink tmax on every
 // hit and keep the closest (CLOSEST HIT). Instances: see the top of the file.
 // kFull false: for a tree without instances or masked materials
-// (BvhTracer::plain), the loop without their code: in CUDA the second level's state
-// and the alpha test's texture lookup would hold registers all through the
-// loop (sm_90: 46 registers for the ray-tracing kernel against 85).
+// (BvhTracer::plain), the loop without their code: in CUDA the second
+// level's state and the alpha test's texture lookup would hold registers
+// all through the loop (sm_90: 46 registers for the ray-tracing kernel
+// against 85).
 template <bool AnyHit, bool kFull = true>
 LUZ_INLINE bool bvh_traverse(const BvhView& bvh, const BvhGeometry& g, const BvhInstancing& inst, const Ray& ray,
                              Hit& hit) {
@@ -381,20 +382,21 @@ struct BvhTracer {
     return bvh_closest_hit(bvh, geometry, instancing, ray, hit);
   }
   LUZ_INLINE bool occluded(const Ray& ray) const { return bvh_any_hit(bvh, geometry, instancing, ray); }
-  // Neither instances nor masked materials: BvhPlainTracer answers alike.
+  // Neither instances nor masked materials: BvhQueries<false> answers alike.
   LUZ_INLINE bool plain() const { return instancing.count == 0 && !geometry.opacity.materials; }
 };
 
-// A plain() BvhTracer's queries through the traversal without instances and
-// alpha tests (bvh_traverse's kFull).
-struct BvhPlainTracer {
+// A BvhTracer's queries in bvh_traverse's variant kFull (false: only for a
+// plain() tracer), for the kernels that come in both.
+template <bool kFull>
+struct BvhQueries {
   const BvhTracer& t;
   LUZ_INLINE bool intersect(const Ray& ray, Hit& hit) const {
-    return bvh_traverse<false, false>(t.bvh, t.geometry, t.instancing, ray, hit);
+    return bvh_traverse<false, kFull>(t.bvh, t.geometry, t.instancing, ray, hit);
   }
   LUZ_INLINE bool occluded(const Ray& ray) const {
     Hit h;
-    return bvh_traverse<true, false>(t.bvh, t.geometry, t.instancing, ray, h);
+    return bvh_traverse<true, kFull>(t.bvh, t.geometry, t.instancing, ray, h);
   }
 };
 

@@ -48,16 +48,12 @@ struct RayBatchParams {
   uint8_t* hit = nullptr;  // 1: the ray hit something (closest) / is occluded
 };
 
-// kFull false: a plain() tracer's, through BvhPlainTracer.
+// kFull false: a plain() tracer's (BvhQueries).
 template <bool kFull = true>
 LUZ_INLINE void trace_ray_item(const RayBatchParams& p, uint32_t i) {
   Hit h;
-  if constexpr (kFull) {
-    p.hit[i] = (p.shadow[i] ? p.tracer.occluded(p.rays[i]) : p.tracer.intersect(p.rays[i], h)) ? 1 : 0;
-  } else {
-    const BvhPlainTracer t{p.tracer};
-    p.hit[i] = (p.shadow[i] ? t.occluded(p.rays[i]) : t.intersect(p.rays[i], h)) ? 1 : 0;
-  }
+  const BvhQueries<kFull> t{p.tracer};
+  p.hit[i] = (p.shadow[i] ? t.occluded(p.rays[i]) : t.intersect(p.rays[i], h)) ? 1 : 0;
 }
 
 }  // namespace luz

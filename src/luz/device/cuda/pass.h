@@ -103,11 +103,12 @@ struct PassSums {
 // passes' kFull = false variants render it (the same samples).
 LUZ_INLINE bool pass_is_plain(const PassParams& p) { return p.tracer.plain() && !p.scene.materials.mapped; }
 
-// One path through the pass's tracer, in the variant kFull chooses.
+// One path through the pass's tracer, in the variant kFull chooses (kFull
+// is also path_li's kMaps).
 template <bool kFull>
 LUZ_FORCE_INLINE Color pass_path(const PassParams& p, const Ray& ray, Sampler& sampler, uint64_t& rays) {
-  if constexpr (kFull) return path_li(p.scene, p.tracer, ray, sampler, p.integrator, rays);
-  else return path_li<BvhPlainTracer, NoPathProbe, false>(p.scene, BvhPlainTracer{p.tracer}, ray, sampler, p.integrator, rays);
+  return path_li<BvhQueries<kFull>, NoPathProbe, kFull>(p.scene, BvhQueries<kFull>{p.tracer}, ray, sampler,
+                                                        p.integrator, rays);
 }
 
 // Thread t's share of pixel (x, y)'s pass, exactly render_cpu's per-pixel

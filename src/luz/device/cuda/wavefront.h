@@ -53,10 +53,7 @@ template <bool kFull = true>
 LUZ_INLINE uint32_t wf_intersect(const WavefrontParams& p, uint32_t i) {
   if (!p.state[i].alive) return 0;
   Hit h;
-  bool found;
-  if constexpr (kFull) found = p.pass.tracer.intersect(p.state[i].ray, h);
-  else found = BvhPlainTracer{p.pass.tracer}.intersect(p.state[i].ray, h);
-  p.found[i] = found ? 1 : 0;
+  p.found[i] = BvhQueries<kFull>{p.pass.tracer}.intersect(p.state[i].ray, h) ? 1 : 0;
   p.hit[i] = h;
   return 1;
 }
@@ -76,10 +73,7 @@ template <bool kFull = true>
 LUZ_INLINE uint32_t wf_shadow(const WavefrontParams& p, uint32_t i) {
   ShadowQuery& sq = p.shadow[i];
   if (!sq.active) return 0;
-  bool blocked;
-  if constexpr (kFull) blocked = p.pass.tracer.occluded(sq.ray);
-  else blocked = BvhPlainTracer{p.pass.tracer}.occluded(sq.ray);
-  if (!blocked) p.state[i].L += sq.contrib;
+  if (!BvhQueries<kFull>{p.pass.tracer}.occluded(sq.ray)) p.state[i].L += sq.contrib;
   sq.active = false;
   return 1;
 }
