@@ -15,6 +15,7 @@
 //  * Rendering: the many-light box with the BVH has the same image mean as
 //    with power selection, per channel, within the error bars of the
 //    per-pixel variances (independent seeds, z-test, Šidák).
+#include <cstring>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -399,6 +400,30 @@ TEST_P(LightSamplers, LightsThatCanLightThePointHavePmf) {
 
 INSTANTIATE_TEST_SUITE_P(, LightSamplers, ::testing::Values(LightSamplerType::Power, LightSamplerType::Bvh),
                          [](const auto& info) { return info.param == LightSamplerType::Bvh ? "Bvh" : "Power"; });
+
+// The GPU's importances (one child at a time, empty slots skipped) against
+// the CPU's 8 lanes at once, on every node of a many-light tree at random
+// shading points: the same operations on the same floats, so the same bits.
+TEST(LightBvh, LaneLoopGivesTheSimdImportances) {
+  const Scene s = many_light_box(1, 400, true);
+  const LightBvhData& d = s.light_bvh;
+  ASSERT_GT(d.nodes.size(), 8u);
+  uint64_t lit = 0;
+  for (uint64_t i = 0; i < 500; ++i) {
+    const LightSampleContext ctx = random_ctx(i);
+    for (size_t k = 0; k < d.nodes.size(); ++k) {
+      float a[kLightBvhWidth], b[kLightBvhWidth];
+      BvhLightSampler::importances(d.nodes[k], ctx, a);
+      BvhLightSampler::importances_by_lane(d.nodes[k], ctx, b);
+      for (int j = 0; j < kLightBvhWidth; ++j) {
+        ASSERT_EQ(std::memcmp(&a[j], &b[j], sizeof(float)), 0)
+            << "node " << k << " slot " << j << " context " << i << ": " << a[j] << " against " << b[j];
+        lit += a[j] > 0.f;
+      }
+    }
+  }
+  EXPECT_GT(lit, 1000u);  // not only zeros compared
+}
 
 TEST(LightSamplerTypes, OneLightIsChosenWithoutTables) {
   Scene s = load_scene(LUZ_SOURCE_DIR "/scenes/cornell-box.xml", {{"res", "8"}});

@@ -165,25 +165,46 @@ struct BvhLightSampler {
   // pbrt-v4's LightBounds::Importance term by term (light_lanes::importance),
   // and 0 for a child whose bounding sphere lies wholly below the surface's
   // tangent plane (ctx.hemisphere: no light from there reaches a reflecting
-  // surface). On the CPU all 8 children at once, in one AVX register.
+  // surface). On the CPU all 8 children at once, in one AVX register;
+  // elsewhere (CUDA) importances_by_lane.
   LUZ_FORCE_INLINE static void importances(const LightBvhNode& nd, const LightSampleContext& ctx,
                                            float imp[kLightBvhWidth]) {
-    const Vec3 n = ctx.ns;
-    // Without a normal, the normal's factor is 1: its cosine is raised above
-    // every cos θb.
-    const float no_n = n.x != 0.f || n.y != 0.f || n.z != 0.f ? 0.f : 2.f;
 #if LUZ_LIGHT_LANES_SIMD
     using namespace light_lanes;
     const LaneF v = importance(load(nd.cx), load(nd.cy), load(nd.cz), load(nd.radius), load(nd.wx), load(nd.wy),
                                load(nd.wz), load(nd.phi), load(nd.cos_o), load(nd.sin_o), load(nd.cos_e),
-                               (load(nd.child) & kLightBvhTwoSided) != 0u, ctx.p, n, ctx.hemisphere, no_n);
+                               (load(nd.child) & kLightBvhTwoSided) != 0u, ctx.p, ctx.ns, ctx.hemisphere,
+                               missing_normal(ctx));
     __builtin_memcpy(imp, &v, sizeof v);
 #else
-    for (int i = 0; i < kLightBvhWidth; ++i)
-      imp[i] = light_lanes::importance(nd.cx[i], nd.cy[i], nd.cz[i], nd.radius[i], nd.wx[i], nd.wy[i], nd.wz[i],
-                                       nd.phi[i], nd.cos_o[i], nd.sin_o[i], nd.cos_e[i], (nd.child[i] & kLightBvhTwoSided) != 0u,
-                                       ctx.p, n, ctx.hemisphere, no_n);
+    importances_by_lane(nd, ctx, imp);
 #endif
+  }
+
+  // The same, one child at a time, the empty slots skipped (their importance
+  // is 0 either way), in a loop kept rolled and out of line in CUDA, so that
+  // sample() and pmf()'s three call sites share one copy of one lane: the 8
+  // lanes unrolled at each doubled the megakernel's hot code, which then
+  // waited on instruction fetches most of its time.
+  LUZ_DEVICE_NOINLINE static void importances_by_lane(const LightBvhNode& nd, const LightSampleContext& ctx,
+                                                      float imp[kLightBvhWidth]) {
+    const float no_n = missing_normal(ctx);
+#if defined(__CUDACC__)
+#pragma unroll 1
+#endif
+    for (int i = 0; i < kLightBvhWidth; ++i)
+      imp[i] = nd.phi[i] > 0.f ? light_lanes::importance(nd.cx[i], nd.cy[i], nd.cz[i], nd.radius[i], nd.wx[i], nd.wy[i],
+                                                         nd.wz[i], nd.phi[i], nd.cos_o[i], nd.sin_o[i], nd.cos_e[i],
+                                                         (nd.child[i] & kLightBvhTwoSided) != 0u, ctx.p, ctx.ns,
+                                                         ctx.hemisphere, no_n)
+                               : 0.f;
+  }
+
+  // Without a normal, the normal's factor is 1: its cosine is raised above
+  // every cos θb (importance's no_n).
+  LUZ_FORCE_INLINE static float missing_normal(const LightSampleContext& ctx) {
+    const Vec3 n = ctx.ns;
+    return n.x != 0.f || n.y != 0.f || n.z != 0.f ? 0.f : 2.f;
   }
 
   // Sample reuse: u is rescaled to [0, 1) within each choice.
