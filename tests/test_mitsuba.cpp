@@ -246,6 +246,18 @@ TEST_F(Mitsuba, Sphere) {
   EXPECT_VEC_NEAR(s.spheres[0].center, Vec3{0, 0, 0});
   EXPECT_EQ(s.spheres[0].radius, 1.f);
   EXPECT_TRUE(s.spheres[0].flip_normals);
+  // A mirroring to_world flips the normals, as Mitsuba 3's sphere.cpp does
+  // (the scale it decomposes takes the determinant's sign); twice, not.
+  const char* mirror = "<transform name=\"to_world\"><scale value=\"-2\"/><rotate y=\"1\" angle=\"30\"/></transform>";
+  s = load(scene(std::string("<shape type=\"sphere\">") + mirror + "</shape>\n"));
+  EXPECT_NEAR(s.spheres[0].radius, 2.f, kTol);
+  EXPECT_TRUE(s.spheres[0].flip_normals);
+  s = load(scene(std::string("<shape type=\"sphere\"><boolean name=\"flip_normals\" value=\"true\"/>") + mirror +
+                 "</shape>\n"));
+  EXPECT_FALSE(s.spheres[0].flip_normals);
+  s = load(scene("<shape type=\"sphere\"><transform name=\"to_world\"><scale x=\"-1\" y=\"-1\" z=\"1\"/></transform>"
+                 "</shape>\n"));  // a rotation by 180°: no mirror
+  EXPECT_FALSE(s.spheres[0].flip_normals);
   expect_error(scene("<shape type=\"sphere\">\n<transform name=\"to_world\"><scale x=\"2\"/></transform></shape>\n"), 4,
                "scale uniformly");
   expect_error(scene("<shape type=\"sphere\">\n<float name=\"radius\" value=\"-1\"/></shape>\n"), 4,

@@ -181,7 +181,11 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
     if (std::fabs(sx - sy) > 1e-4f * sx || std::fabs(sx - sz) > 1e-4f * sx)
       error(n, "a sphere's to_world must scale uniformly");
     // Mitsuba 3's sphere is to_world · translate(center) · scale(radius) of
-    // the unit sphere: its uv angles are taken in to_world's axes.
+    // the unit sphere: its uv angles are taken in to_world's axes. A
+    // mirroring to_world turns its normals inward, as in Mitsuba 3 (the scale
+    // it decomposes to_world into takes the determinant's sign, and a
+    // negative one flips the normals).
+    if (to_world.det3() < 0) flip = !flip;
     builder_.add_sphere(loc(n), c, float(radius) * sx, uint32_t(material), emission, flip, to_world);
     return;
   }
