@@ -15,13 +15,13 @@
 //  * Rendering: the many-light box with the BVH has the same image mean as
 //    with power selection, per channel, within the error bars of the
 //    per-pixel variances (independent seeds, z-test, Šidák).
-#include <cstring>
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
 #include <cfloat>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 #include "chi2.h"

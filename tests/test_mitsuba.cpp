@@ -247,7 +247,8 @@ TEST_F(Mitsuba, Sphere) {
   EXPECT_EQ(s.spheres[0].radius, 1.f);
   EXPECT_TRUE(s.spheres[0].flip_normals);
   // A mirroring to_world flips the normals, as Mitsuba 3's sphere.cpp does
-  // (the scale it decomposes takes the determinant's sign); twice, not.
+  // (the scale it decomposes takes the determinant's sign); with
+  // flip_normals too, the two flips cancel.
   const char* mirror = "<transform name=\"to_world\"><scale value=\"-2\"/><rotate y=\"1\" angle=\"30\"/></transform>";
   s = load(scene(std::string("<shape type=\"sphere\">") + mirror + "</shape>\n"));
   EXPECT_NEAR(s.spheres[0].radius, 2.f, kTol);
