@@ -442,6 +442,55 @@ TEST(LightSamplerTypes, OneLightIsChosenWithoutTables) {
   }
 }
 
+// A tree of one light (the box's, beside a sky) is sampled without the walk:
+// wherever the walk gives the light a pmf, the same light, pmf and remapped
+// u; where the walk gives none (the light's importance 0: points above the
+// one-sided light, or beside it below a surface's tangent plane), the light
+// with the tree's whole pmf, but its samples from there bring nothing (no
+// pdf, no radiance, or from below the hemisphere), so the estimate is the
+// walk's.
+TEST(LightBvh, OneLightTreeIsChosenWithoutItsImportance) {
+  Scene s = load_scene(LUZ_SOURCE_DIR "/scenes/cornell-box.xml", {{"res", "8"}});
+  ConstantLight sky;
+  sky.radiance = {0.1f, 0.1f, 0.1f};
+  s.lights.push_back(sky);
+  s.compile();
+  const LightsView& lights = s.view().lights;
+  const BvhLightSampler fast = sampler_of(s, LightSamplerType::Bvh).bvh;
+  ASSERT_EQ(s.lights.size(), 2u);
+  ASSERT_EQ(fast.only, 0);  // the box's light; the sky is outside the tree
+  BvhLightSampler walk = fast;
+  walk.only = -1;
+  const float tree_pmf = 1.f - fast.p_infinite;
+  int agreed = 0, refused = 0;
+  for (uint64_t i = 0; i < 4000; ++i) {
+    const LightSampleContext ctx = random_ctx(5000 + i);
+    float u_fast = chi2::rand01(3, i, 0), u_walk = u_fast;
+    const SampledLight a = fast.sample(ctx, u_fast), b = walk.sample(ctx, u_walk);
+    EXPECT_EQ(fast.pmf(ctx, 0), tree_pmf);
+    if (b.pmf > 0.f) {
+      ++agreed;
+      ASSERT_EQ(a.light, b.light) << "context " << i;
+      ASSERT_EQ(a.pmf, b.pmf) << "context " << i;
+      ASSERT_NEAR(u_fast, u_walk, 2e-7f) << "context " << i;  // u·total/total: an ulp or so
+      ASSERT_EQ(fast.pmf(ctx, b.light), walk.pmf(ctx, b.light)) << "context " << i;
+      continue;
+    }
+    if (u_walk != u_fast || walk.pmf(ctx, 0) != 0.f) continue;  // the sky chosen, or the walk refused at its root
+    ++refused;
+    ASSERT_EQ(a.light, 0u);
+    ASSERT_EQ(a.pmf, tree_pmf);
+    for (uint64_t k = 0; k < 32; ++k) {
+      const LightSample ls = sample_li(lights[0], ctx, chi2::rand2(29, i * 32 + k, 0), lights.data);
+      const bool above = is_black(ctx.hemisphere) || dot(ls.wi, ctx.hemisphere) > 0.f;
+      ASSERT_FALSE(ls.pdf > 0.f && !is_black(ls.radiance) && above)
+          << "context " << i << ": the walk refused a light whose sample can light it";
+    }
+  }
+  EXPECT_GT(agreed, 1000);
+  EXPECT_GT(refused, 100);
+}
+
 // The collapsed tree's shape, for light sets the SAH splits well, badly or
 // not at all (every light at one point): each light with power sits in one
 // slot its trail leads to; a node whose subtree holds m lights has min(m, 8)

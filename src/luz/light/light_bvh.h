@@ -160,6 +160,15 @@ struct BvhLightSampler {
   const uint32_t* infinite = nullptr;  // the infinite lights with power
   uint32_t num_infinite = 0;
   float p_infinite = 0.f;  // num_infinite / (num_infinite + (tree ? 1 : 0))
+  // The tree's light where it holds only one (else -1): chosen wherever the
+  // tree is, without its importance (pmf 1 within the tree, as the walk
+  // gives wherever that importance is positive). Where it is 0 (the light
+  // wholly below the surface's tangent plane, or facing away) the light's
+  // sample brings nothing either way (no pdf, or the side test), and no
+  // BSDF sample finds its emission, so the estimate is unchanged; the walk
+  // cost a scene of one emitter and a sky ~11% of its time (CPU, material
+  // spheres).
+  int32_t only = -1;
 
   // The importance of each of a node's children at the context's point:
   // pbrt-v4's LightBounds::Importance term by term (light_lanes::importance),
@@ -218,6 +227,7 @@ struct BvhLightSampler {
     if (num_nodes == 0) return {};
     u = min((u - p_infinite) / (1.f - p_infinite), kOneMinusEpsilon);
     float pmf = 1.f - p_infinite;
+    if (only >= 0) return {uint32_t(only), pmf};
     uint32_t k = 0;
     for (int level = 0; level < kLightTrailLevels; ++level) {
       float imp[kLightBvhWidth], c[kLightBvhWidth];  // c: where each child's stretch of [0, total) starts
@@ -251,6 +261,7 @@ struct BvhLightSampler {
     if (t & kTrailInfinite) return p_infinite / float(num_infinite);
     if (t & kTrailNone) return 0.f;
     float pmf = 1.f - p_infinite;
+    if (only >= 0) return pmf;
     uint32_t k = 0;
     for (int level = 0; level < kLightTrailLevels; ++level) {
       float imp[kLightBvhWidth];
@@ -286,6 +297,15 @@ struct LightBvhData {
     s.infinite = infinite.data();
     s.num_infinite = uint32_t(infinite.size());
     s.p_infinite = p_infinite;
+    if (nodes.size() == 1) {  // one light in the tree: one leaf child with power
+      int children = 0;
+      for (int i = 0; i < kLightBvhWidth; ++i)
+        if (nodes[0].phi[i] > 0.f) {
+          ++children;
+          if (nodes[0].child[i] & kLightBvhLeaf) s.only = int32_t(nodes[0].child[i] & kLightBvhIndex);
+        }
+      if (children != 1) s.only = -1;
+    }
     return s;
   }
 };
