@@ -17,6 +17,7 @@
 // order as sample(), so both give the same float.
 #pragma once
 
+#include <algorithm>
 #include <cfloat>
 #include <vector>
 
@@ -297,14 +298,11 @@ struct LightBvhData {
     s.infinite = infinite.data();
     s.num_infinite = uint32_t(infinite.size());
     s.p_infinite = p_infinite;
-    if (nodes.size() == 1) {  // one light in the tree: one leaf child with power
-      int children = 0;
-      for (int i = 0; i < kLightBvhWidth; ++i)
-        if (nodes[0].phi[i] > 0.f) {
-          ++children;
-          if (nodes[0].child[i] & kLightBvhLeaf) s.only = int32_t(nodes[0].child[i] & kLightBvhIndex);
-        }
-      if (children != 1) s.only = -1;
+    // One light in the tree: a lone root whose one child with power is it.
+    const auto powered = [](float phi) { return phi > 0.f; };
+    if (nodes.size() == 1 && std::count_if(nodes[0].phi, nodes[0].phi + kLightBvhWidth, powered) == 1) {
+      const int i = int(std::find_if(nodes[0].phi, nodes[0].phi + kLightBvhWidth, powered) - nodes[0].phi);
+      s.only = int32_t(nodes[0].child[i] & kLightBvhIndex);
     }
     return s;
   }
