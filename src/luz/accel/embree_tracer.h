@@ -12,6 +12,9 @@
 #include <cstring>
 
 #include <embree3/rtcore.h>
+#if defined(__SSE__)
+#include <immintrin.h>
+#endif
 
 #include <vector>
 
@@ -112,13 +115,18 @@ struct EmbreeTracer {
     constexpr F4 kLarge4 = {kLarge, kLarge, kLarge, kLarge};
     const F4 o = {ray.o.x, ray.o.y, ray.o.z, 0.f};  // tnear 0
     const F4 d = {ray.d.x, ray.d.y, ray.d.z, 0.f};  // time 0
-    const I4 t = {std::bit_cast<int32_t>(ray.tmax), -1, 0, 0};  // tfar, mask ~0u, id, flags
+    const F4 tmax = {ray.tmax, 0.f, 0.f, 0.f};
+    const I4 t = (I4)tmax | (I4){0, -1, 0, 0};  // tfar, mask ~0u, id, flags
     std::memcpy(&r.org_x, &o, sizeof o);
     std::memcpy(&r.dir_x, &d, sizeof d);
     std::memcpy(&r.tfar, &t, sizeof t);
-    // |x| <= kLarge: false for NaN too.
-    const I4 ok = ((F4)((I4)o & kAbs) <= kLarge4) & ((F4)((I4)d & kAbs) <= kLarge4);
-    return ((ok[0] & ok[1]) & (ok[2] & ok[3])) != 0 && !std::isnan(ray.tmax);
+    // |x| <= kLarge (false for NaN too) and tmax == tmax, in every lane.
+    const I4 ok = ((F4)((I4)o & kAbs) <= kLarge4) & ((F4)((I4)d & kAbs) <= kLarge4) & (tmax == tmax);
+#if defined(__SSE__)
+    return _mm_movemask_ps((__m128)ok) == 0xf;  // one instruction for the four lanes
+#else
+    return ((ok[0] & ok[1]) & (ok[2] & ok[3])) != 0;
+#endif
   }
 
   bool intersect(const Ray& ray, Hit& hit) const {
