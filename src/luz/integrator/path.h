@@ -142,9 +142,14 @@ LUZ_FORCE_INLINE VertexRandom draw_vertex_random(const Sampler& sampler, int dep
   return r;
 }
 
+// The ray is copied member by member: its caller wrote it so (the camera's
+// floats), and a whole-struct copy's 16-byte loads would wait for those
+// narrower stores to reach the cache instead of forwarding from them.
 LUZ_INLINE PathState path_start(const Ray& ray) {
   PathState st;
-  st.ray = ray;
+  st.ray.o = ray.o;
+  st.ray.d = ray.d;
+  st.ray.tmax = ray.tmax;
   st.prev_p = ray.o;
   return st;
 }
@@ -341,7 +346,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
 // 0.55). Returns the radiance; `rays` counts every query. `Probe` and
 // `kMaps`: as path_vertex's.
 template <class Tracer, class Probe = NoPathProbe, bool kMaps = true>
-LUZ_DEVICE_FORCE_INLINE Color path_li(const SceneView& scene, const Tracer& tracer, Ray ray, Sampler& sampler,
+LUZ_DEVICE_FORCE_INLINE Color path_li(const SceneView& scene, const Tracer& tracer, const Ray& ray, Sampler& sampler,
                               const IntegratorParams& params, uint64_t& rays) {
   PathState st = path_start(ray);
   ShadowQuery sq;  // the previous vertex's
