@@ -36,7 +36,9 @@ struct LightSampler {
 
   LUZ_INLINE SampledLight sample(const LightSampleContext& ctx, float& u) const {
     if (n == 1) return {0, 1.f};
-    return type == LightSamplerType::Bvh ? bvh.sample(ctx, u) : power.sample(ctx, u);
+    if (type != LightSamplerType::Bvh) return power.sample(ctx, u);
+    const LightSampleContext c = ctx;  // the out-of-line walk's copy: made only on this branch
+    return bvh.sample(c, u);
   }
   LUZ_INLINE float pmf(const LightSampleContext& ctx, uint32_t light) const {
     if (n == 1) return 1.f;
