@@ -6,8 +6,6 @@
 // object; a scene without instances stays one flat Embree scene.
 #pragma once
 
-#include <bit>
-#include <cmath>
 #include <cstddef>
 #include <cstring>
 

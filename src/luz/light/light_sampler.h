@@ -37,7 +37,9 @@ struct LightSampler {
   LUZ_INLINE SampledLight sample(const LightSampleContext& ctx, float& u) const {
     if (n == 1) return {0, 1.f};
     if (type != LightSamplerType::Bvh) return power.sample(ctx, u);
-    const LightSampleContext c = ctx;  // the out-of-line walk's copy: made only on this branch
+    // A copy for the out-of-line walk, made on this branch only: the caller's
+    // context can then stay in registers (the power branch reads none of it).
+    const LightSampleContext c = ctx;
     return bvh.sample(c, u);
   }
   LUZ_INLINE float pmf(const LightSampleContext& ctx, uint32_t light) const {
