@@ -165,8 +165,8 @@ TEST_F(Resume, SigintAndSigtermWriteTheImageAndACheckpoint) {
   const auto ref_start = std::chrono::steady_clock::now();
   CliResult ref = run(with(kLong, {"-o", "ref.exr"}));
   ASSERT_EQ(ref.status, 0) << ref.err;
-  // The signal comes at 40% of the uninterrupted render's time, so mid-render
-  // on any machine (a fixed second came after the end on a fast one).
+  // The signal comes at 40% of the uninterrupted render's time: mid-render
+  // on a fast machine and on a slow one.
   const double signal_at = 0.4 * std::chrono::duration<double>(std::chrono::steady_clock::now() - ref_start).count();
   for (int sig : {SIGINT, SIGTERM}) {
     SCOPED_TRACE(sig == SIGINT ? "SIGINT" : "SIGTERM");
