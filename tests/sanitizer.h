@@ -25,4 +25,11 @@ constexpr T sanitized_count(T n) {
   return kAsan ? n / 4 : n;
 }
 
+// Skips, under the sanitizers only, a test that repeats on the Wooden
+// Staircase (7-12 s a load under ASan) code that other sanitized tests run
+// on it or on smaller scenes: reported as skipped there, with `why`; the
+// Release run keeps it. In a test body (GoogleTest's GTEST_SKIP).
+#define LUZ_SKIP_UNDER_SANITIZERS(why) \
+  if (::luz_test::kAsan) GTEST_SKIP() << "under the sanitizers: " << (why)
+
 }  // namespace luz_test

@@ -43,7 +43,6 @@
 
 #include "luz/io/image.h"
 #include "luz/io/load.h"
-#include "sanitizer.h"
 #include "scene_helpers.h"
 #include "stat_helpers.h"
 
@@ -53,9 +52,7 @@ namespace {
 
 constexpr int kRes = 128;
 constexpr int kBlock = 8;
-// A quarter of the samples under the sanitizers (scripts/sanitize), where
-// the render's memory and arithmetic are under test: the bound follows the noise.
-constexpr uint32_t kSpp = luz_test::kAsan ? 256 : 1024;
+constexpr uint32_t kSpp = 1024;
 constexpr double kFamilyAlpha = 1e-3;
 constexpr double kHalfUlp = 1.0 / 2048.0;  // half-float rounding, relative: 2^-11
 
