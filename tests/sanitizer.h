@@ -26,9 +26,9 @@ constexpr T sanitized_count(T n) {
 }
 
 // Skips, under the sanitizers only, a test that repeats on the Wooden
-// Staircase (7-12 s a load under ASan) code that other sanitized tests run
+// Staircase (5-12 s a load under ASan) code that other sanitized tests run
 // on it or on smaller scenes: reported as skipped there, with `why`; the
-// Release run keeps it. In a test body (GoogleTest's GTEST_SKIP).
+// Release run keeps it. The first statement of a test body (GTEST_SKIP).
 #define LUZ_SKIP_UNDER_SANITIZERS(why) \
   if (::luz_test::kAsan) GTEST_SKIP() << "under the sanitizers: " << (why)
 

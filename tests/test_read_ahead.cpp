@@ -230,14 +230,14 @@ TEST_F(FirstError, GltfNamesTheFirstBadImage) {
 // ---- the staircase: the same scene on one thread and on all ----
 
 TEST(ReadAheadStaircase, MitsubaOneThreadOrMany) {
-  LUZ_SKIP_UNDER_SANITIZERS("the read-ahead's memory is checked on the scenes above and by every sanitized staircase load");
+  LUZ_SKIP_UNDER_SANITIZERS("the tests above and every staircase load run the read-ahead sanitized");
   const std::string f = kScenes + "staircase/mitsuba/scene.xml";
   const luz::Scene one = sequential([&] { return luz::load_scene(f); });
   expect_same_scene(one, luz::load_scene(f));
 }
 
 TEST(ReadAheadStaircase, PbrtOneThreadOrMany) {
-  LUZ_SKIP_UNDER_SANITIZERS("the read-ahead's memory is checked on the scenes above and by every sanitized staircase load");
+  LUZ_SKIP_UNDER_SANITIZERS("the tests above and every staircase load run the read-ahead sanitized");
   const std::string f = kScenes + "staircase/pbrt-v4/scene-v4.pbrt";
   const luz::Scene one = sequential([&] { return luz::load_scene(f); });
   expect_same_scene(one, luz::load_scene(f));

@@ -710,7 +710,7 @@ TEST_F(Staircase, TinyRenderIsFinite) {
 // 13% bright). A per-block bound would need far more samples than a unit
 // test can spend.
 TEST_F(Staircase, AgreesWithTungstenAtLowResolution) {
-  LUZ_SKIP_UNDER_SANITIZERS("a comparison of numbers, as the `slow` reference renders; TinyRenderIsFinite renders the scene sanitized");
+  LUZ_SKIP_UNDER_SANITIZERS("a check of numbers; TinyRenderIsFinite renders the scene sanitized");
   constexpr double kTolerance = 0.05;
   constexpr int kW = 36, kH = 64, kBlock = 4;
   Image ref = read_exr(kStaircaseReference);
