@@ -8,15 +8,18 @@
 
 namespace luz::cuda {
 
-// The megakernels' bounds: 128 threads a block, registers fitted to 5
-// blocks a multiprocessor: 96 registers and more spills than the 128 ptxas
-// picks alone, but 20 warps resident instead of 16, which hide more of the
-// wait for instructions (bench/RESULTS.md, 2026-12-04).
-#define LUZ_MEGAKERNEL_BOUNDS __launch_bounds__(kBlockX * kBlockY, 5)
+// The megakernels' bounds: 128 threads a block, and for all but the plain
+// splatting kernel registers fitted to 5 blocks a multiprocessor: 96
+// registers and more spills than the 128 ptxas picks alone, but 20 warps
+// resident instead of 16, which hide more of the wait for instructions
+// (bench/RESULTS.md, 2026-12-04: material spheres, Sponza, the staircase).
+// The plain splatting kernel (the bundled box) ran faster with its 128.
+// A minimum of 0 blocks emits none (an explicit 1 makes ptxas take 255).
+#define LUZ_MEGAKERNEL_BOUNDS(min_blocks) __launch_bounds__(kBlockX * kBlockY, min_blocks)
 
 // kFull: pass.h's two variants, chosen per scene by pass_is_plain.
 template <bool kFull>
-__global__ void LUZ_MEGAKERNEL_BOUNDS render_pass_kernel(PassParams p, unsigned long long* rays) {
+__global__ void LUZ_MEGAKERNEL_BOUNDS(5) render_pass_kernel(PassParams p, unsigned long long* rays) {
   const uint32_t x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
   uint64_t n = 0;
   if (x < uint32_t(p.scene.camera.width) && y < uint32_t(p.scene.camera.height))
@@ -37,7 +40,7 @@ cudaError_t launch_render_pass(const PassParams& params, unsigned long long* ray
 
 // Splatting (pass.h): the squares of the bordered image, then every pixel's gather.
 template <bool kFull>
-__global__ void LUZ_MEGAKERNEL_BOUNDS render_squares_kernel(PassParams p, unsigned long long* rays) {
+__global__ void LUZ_MEGAKERNEL_BOUNDS(kFull ? 5 : 0) render_squares_kernel(PassParams p, unsigned long long* rays) {
   const uint32_t x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y;
   const uint32_t cw = uint32_t(p.scene.camera.width + 2 * p.reach), ch = uint32_t(p.scene.camera.height + 2 * p.reach);
   uint64_t n = 0;
