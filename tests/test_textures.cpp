@@ -632,26 +632,30 @@ const std::string kStaircaseReference = LUZ_SHARED_DIR "/scenes/staircase/refere
 
 class Staircase : public ::testing::Test {
  protected:
-  static inline Scene* scene = nullptr;  // loaded once for the suite
+  // Loaded once for the suite, by the first test that asks (a test that
+  // skips itself first loads nothing).
+  static inline Scene* loaded = nullptr;
   static inline double load_seconds = 0;
 
-  static void SetUpTestSuite() {
-    if (!fs::exists(kStaircase)) return;
-    auto t0 = std::chrono::steady_clock::now();
-    scene = new Scene(load_scene(kStaircase, {}));
-    load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  static const Scene& scene() {
+    if (!loaded) {
+      auto t0 = std::chrono::steady_clock::now();
+      loaded = new Scene(load_scene(kStaircase, {}));
+      load_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+    return *loaded;
   }
   static void TearDownTestSuite() {
-    delete scene;
-    scene = nullptr;
+    delete loaded;
+    loaded = nullptr;
   }
   void SetUp() override {
-    if (!scene) GTEST_SKIP() << kStaircase << " not found";
+    if (!fs::exists(kStaircase)) GTEST_SKIP() << kStaircase << " not found";
   }
   // The scene's own view at width × height (the same field of view: 720×1280
   // scaled by an integer keeps its aspect ratio).
   static Film render(int width, int height, uint32_t spp, RenderStats& stats) {
-    Scene s = *scene;
+    Scene s = scene();
     s.camera.width = width;
     s.camera.height = height;
     s.settings.spp = spp;
@@ -665,17 +669,18 @@ class Staircase : public ::testing::Test {
 };
 
 TEST_F(Staircase, LoadsAllMeshesAndTextures) {
+  const Scene& s = scene();
   std::printf("[staircase] loaded in %.2f s: %u triangles, %zu textures (%zu texels), %zu materials\n", load_seconds,
-              scene->num_triangles(), scene->textures.size(), scene->texels8.size(), scene->materials.size());
-  EXPECT_EQ(scene->num_triangles(), 262663u);
-  EXPECT_EQ(scene->textures.size(), 10u);  // ten bitmaps, the bumpmap's height among them
-  EXPECT_EQ(scene->uvs.size(), scene->positions.size());
-  EXPECT_EQ(scene->settings.integrator.max_depth, 65);
-  EXPECT_EQ(scene->settings.spp, 64u);
-  EXPECT_EQ(scene->camera.width, 720);
-  EXPECT_EQ(scene->camera.height, 1280);
+              s.num_triangles(), s.textures.size(), s.texels8.size(), s.materials.size());
+  EXPECT_EQ(s.num_triangles(), 262663u);
+  EXPECT_EQ(s.textures.size(), 10u);  // ten bitmaps, the bumpmap's height among them
+  EXPECT_EQ(s.uvs.size(), s.positions.size());
+  EXPECT_EQ(s.settings.integrator.max_depth, 65);
+  EXPECT_EQ(s.settings.spp, 64u);
+  EXPECT_EQ(s.camera.width, 720);
+  EXPECT_EQ(s.camera.height, 1280);
   size_t textured = 0;
-  for (const Material& m : scene->materials) textured += m.num_bindings > 0;
+  for (const Material& m : s.materials) textured += m.num_bindings > 0;
   EXPECT_GE(textured, 9u);
 }
 
