@@ -60,7 +60,7 @@ inline constexpr int kLightTrailLevels = 20;
 // every operand is computed before the selects that pick among them.
 namespace light_lanes {
 
-#if !defined(__CUDACC__) && defined(__GNUC__) && !defined(__clang__)
+#if !defined(__CUDACC__) && defined(__GNUC__)  // GCC and clang
 #define LUZ_LIGHT_LANES_SIMD 1
 typedef float LaneF __attribute__((vector_size(4 * kLightBvhWidth)));
 typedef uint32_t LaneU __attribute__((vector_size(4 * kLightBvhWidth)));
