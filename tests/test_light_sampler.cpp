@@ -280,9 +280,12 @@ int tree_depth(const LightBvhData& d) {
 // The probability that the BVH's walk ends at a node none of whose children
 // has importance at ctx (sample() then returns no light).
 double none_mass(const BvhLightSampler& b, const LightSampleContext& ctx) {
-  if (b.num_nodes == 0) return 1.0 - b.p_infinite;
+  float root[kLightBvhWidth];
+  const double tree = b.root_importances(ctx, root), all = double(b.infinite_total) + tree;
+  if (!(all > 0)) return 1.0;
+  if (b.num_nodes == 0) return 0.0;
   double none = 0;
-  std::vector<std::pair<uint32_t, double>> stack = {{0u, 1.0 - double(b.p_infinite)}};
+  std::vector<std::pair<uint32_t, double>> stack = {{0u, tree / all}};
   while (!stack.empty()) {
     const auto [k, mass] = stack.back();
     stack.pop_back();
@@ -442,32 +445,32 @@ TEST(LightSamplerTypes, OneLightIsChosenWithoutTables) {
   }
 }
 
-// A tree of one light (the box's, beside a sky) is sampled without the walk:
-// wherever the walk gives the light a pmf, the same light, pmf and remapped
-// u; where the walk gives none (the light's importance 0: points above the
-// one-sided light, or beside it below a surface's tangent plane), the light
-// with the tree's whole pmf, but its samples from there bring nothing (no
-// pdf, no radiance, or from below the hemisphere), so the estimate is the
-// walk's.
+// A tree of one light with no infinite light beside it (the box's, beside a
+// point light without power) is sampled without the walk: wherever the walk
+// gives the light a pmf, the same light, pmf and remapped u; where the walk
+// gives none (the light's importance 0: points above the one-sided light, or
+// beside it below a surface's tangent plane), the light with pmf 1, but its
+// samples from there bring nothing (no pdf, no radiance, or from below the
+// hemisphere), so the estimate is the walk's.
 TEST(LightBvh, OneLightTreeIsChosenWithoutItsImportance) {
   Scene s = load_scene(LUZ_SOURCE_DIR "/scenes/cornell-box.xml", {{"res", "8"}});
-  ConstantLight sky;
-  sky.radiance = {0.1f, 0.1f, 0.1f};
-  s.lights.push_back(sky);
+  PointLight dark;
+  dark.position = {278, 270, 280};
+  s.lights.push_back(dark);
   s.compile();
   const LightsView& lights = s.view().lights;
   const BvhLightSampler fast = sampler_of(s, LightSamplerType::Bvh).bvh;
   ASSERT_EQ(s.lights.size(), 2u);
-  ASSERT_EQ(fast.only, 0);  // the box's light; the sky is outside the tree
+  ASSERT_EQ(fast.only, 0);  // the box's light; the point light has no power
   BvhLightSampler walk = fast;
   walk.only = -1;
-  const float tree_pmf = 1.f - fast.p_infinite;
   int agreed = 0, refused = 0;
   for (uint64_t i = 0; i < 4000; ++i) {
     const LightSampleContext ctx = random_ctx(5000 + i);
     float u_fast = chi2::rand01(3, i, 0), u_walk = u_fast;
     const SampledLight a = fast.sample(ctx, u_fast), b = walk.sample(ctx, u_walk);
-    EXPECT_EQ(fast.pmf(ctx, 0), tree_pmf);
+    EXPECT_EQ(fast.pmf(ctx, 0), 1.f);
+    EXPECT_EQ(fast.pmf(ctx, 1), 0.f);
     if (b.pmf > 0.f) {
       ++agreed;
       ASSERT_EQ(a.light, b.light) << "context " << i;
@@ -476,10 +479,10 @@ TEST(LightBvh, OneLightTreeIsChosenWithoutItsImportance) {
       ASSERT_EQ(fast.pmf(ctx, b.light), walk.pmf(ctx, b.light)) << "context " << i;
       continue;
     }
-    ++refused;  // the walk chose the tree and found no importance in it
+    ++refused;  // the walk found no importance in the tree
     ASSERT_EQ(walk.pmf(ctx, 0), 0.f);
     ASSERT_EQ(a.light, 0u);
-    ASSERT_EQ(a.pmf, tree_pmf);
+    ASSERT_EQ(a.pmf, 1.f);
     for (uint64_t k = 0; k < 32; ++k) {
       const LightSample ls = sample_li(lights[0], ctx, chi2::rand2(29, i * 32 + k, 0), lights.data);
       const bool above = is_black(ctx.hemisphere) || dot(ls.wi, ctx.hemisphere) > 0.f;
@@ -489,6 +492,49 @@ TEST(LightBvh, OneLightTreeIsChosenWithoutItsImportance) {
   }
   EXPECT_GT(agreed, 1000);
   EXPECT_GT(refused, 100);
+}
+
+// The infinite lights beside the tree: each weighed by its irradiance
+// estimate (a constant sky πL, a directional light E), the tree by its
+// root's importances at the point: pmf(infinite i) = w_i / (Σ w + Σ root),
+// the tree's lights sharing the rest. So a dim sky over the box's bright
+// light takes a small share where the light shines and all of it where the
+// light cannot reach (above it), where a fixed share (pbrt-v4's) gives it half
+// everywhere.
+TEST(LightBvh, InfiniteLightsAreWeighedAgainstTheTreeByIrradiance) {
+  Scene s = load_scene(LUZ_SOURCE_DIR "/scenes/cornell-box.xml", {{"res", "8"}});
+  ConstantLight sky;
+  sky.radiance = {0.01f, 0.02f, 0.03f};
+  s.lights.push_back(sky);
+  DirectionalLight sun;
+  sun.direction = normalize(Vec3{0.3f, -1.f, 0.2f});
+  sun.irradiance = {0.1f, 0.1f, 0.05f};
+  s.lights.push_back(sun);
+  s.compile();
+  const BvhLightSampler b = sampler_of(s, LightSamplerType::Bvh).bvh;
+  ASSERT_EQ(b.num_infinite, 2u);
+  EXPECT_EQ(b.only, -1);
+  const float w_sky = float(M_PI * 0.02), w_sun = 0.25f / 3.f;
+  EXPECT_NEAR(b.infinite_weight[0], w_sky, 1e-6f);
+  EXPECT_NEAR(b.infinite_weight[1], w_sun, 1e-6f);
+  // Under the light on the floor, facing it; far above the light (its back).
+  const LightSampleContext under{{278, 0, 280}, {0, 1, 0}, {0, 1, 0}, {0, 1, 0}};
+  const LightSampleContext above{{278, 1500, 280}, {0, 1, 0}, {0, 1, 0}, {0, 1, 0}};
+  float imp[kLightBvhWidth];
+  const float tree_under = b.root_importances(under, imp);
+  // The light's irradiance there: L · A / d² ≈ 11 · 130 · 105 / 549² ≈ 0.5.
+  std::printf("tree's importance under the light %.3f, the infinite lights' weights %.3f + %.3f\n", tree_under, w_sky,
+              w_sun);
+  EXPECT_GT(tree_under, 2.f * (w_sky + w_sun));
+  EXPECT_EQ(b.root_importances(above, imp), 0.f);
+  for (const LightSampleContext& ctx : {under, above}) {
+    const float tree = b.root_importances(ctx, imp), all = w_sky + w_sun + tree;
+    EXPECT_NEAR(b.pmf(ctx, 1), w_sky / all, 1e-6f * w_sky / all);
+    EXPECT_NEAR(b.pmf(ctx, 2), w_sun / all, 1e-6f * w_sun / all);
+    EXPECT_NEAR(b.pmf(ctx, 0), tree / all, 1e-6f);
+  }
+  EXPECT_LT(b.pmf(under, 1) + b.pmf(under, 2), 0.34f);
+  EXPECT_FLOAT_EQ(b.pmf(above, 1) + b.pmf(above, 2), 1.f);
 }
 
 // The collapsed tree's shape, for light sets the SAH splits well, badly or

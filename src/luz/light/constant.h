@@ -79,6 +79,8 @@ struct ConstantLight {
   double phi(float scene_radius) const {
     return 4.0 * M_PI * (M_PI * double(scene_radius) * scene_radius) * std::max(0.0, double(average(radiance)));
   }
+  // The irradiance it gives an unoccluded surface: πL, whichever way it faces.
+  double irradiance_estimate() const { return M_PI * std::max(0.0, double(average(radiance))); }
 };
 
 }  // namespace luz

@@ -63,6 +63,8 @@ struct DirectionalLight {
   double phi(float scene_radius) const {
     return M_PI * double(scene_radius) * scene_radius * std::max(0.0, double(average(irradiance)));
   }
+  // The irradiance it gives an unoccluded surface facing it.
+  double irradiance_estimate() const { return std::max(0.0, double(average(irradiance))); }
 };
 
 }  // namespace luz

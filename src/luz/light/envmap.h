@@ -110,6 +110,9 @@ struct EnvmapLight {
   double phi(float scene_radius) const {
     return 4.0 * M_PI * (M_PI * double(scene_radius) * scene_radius) * std::max(0.0, double(mean_radiance)) * scale;
   }
+  // The irradiance it gives an unoccluded surface, averaged over the ways
+  // the surface may face: π times the mean radiance.
+  double irradiance_estimate() const { return M_PI * std::max(0.0, double(mean_radiance)) * scale; }
 };
 
 // Appends an envmap's texels (width · height RGB, rows top to bottom, finite

@@ -12,6 +12,7 @@
 //   Color le(Vec3 dir, const LightData& data) const;  // environments: radiance arriving along -dir, from dir
 //   double phi(float scene_radius) const;  // power (host), for light selection
 //   LightBounds bounds() const;            // (host, finite lights only) for the light BVH
+//   double irradiance_estimate() const;    // (host, infinite lights only) for the light BVH
 // pdf_li is the solid-angle density with which sample_li finds the light
 // along wi (0 for delta lights: no ray finds them). sample_le draws an
 // emitted ray (light tracing, BDPT; pbrt-v4's SampleLe), pdf_le gives its
@@ -144,6 +145,22 @@ inline std::optional<LightBounds> bounds(const Light& l) {
   return visit(l, [](const auto& m) -> std::optional<LightBounds> {
     if constexpr (HasBounds<std::decay_t<decltype(m)>>::value) return m.bounds();
     else return std::nullopt;
+  });
+}
+
+template <class M, class = void>
+struct HasIrradianceEstimate : std::false_type {};
+template <class M>
+struct HasIrradianceEstimate<M, std::void_t<decltype(std::declval<const M&>().irradiance_estimate())>>
+    : std::true_type {};
+
+// The irradiance an infinite light gives an unoccluded surface (host; 0 for
+// the others): what the light BVH weighs it by against the tree's
+// importance, itself an estimate of irradiance.
+inline double irradiance_estimate(const Light& l) {
+  return visit(l, [](const auto& m) -> double {
+    if constexpr (HasIrradianceEstimate<std::decay_t<decltype(m)>>::value) return m.irradiance_estimate();
+    else return 0.0;
   });
 }
 

@@ -201,8 +201,12 @@ LightBvhData build_light_bvh(const Light* lights, const double* power, uint32_t 
     if (!(power[k] > 0.0)) continue;
     const std::optional<LightBounds> b = bounds(lights[k]);
     if (!b) {
-      out.trails[k] = kTrailInfinite;
+      const double w = irradiance_estimate(lights[k]);
+      if (!(w > 0.0)) continue;
+      out.trails[k] = kTrailInfinite | out.infinite.size();
       out.infinite.push_back(k);
+      out.infinite_weight.push_back(float(w));
+      out.infinite_total += float(w);
     } else if (b->phi > 0.f) {
       items.push_back({*b, (b->lo + b->hi) * 0.5f, k});
     }
@@ -213,8 +217,6 @@ LightBvhData build_light_bvh(const Light* lights, const double* power, uint32_t 
     b.build(0, items.size(), 0);
     Collapser{b.nodes, out}.collapse(0, 0, 0);
   }
-  const size_t choices = out.infinite.size() + (items.empty() ? 0 : 1);
-  out.p_infinite = choices ? float(double(out.infinite.size()) / double(choices)) : 0.f;
   return out;
 }
 

@@ -3,9 +3,13 @@
 // walked from the root choosing each child in proportion to its importance
 // at the shading point (pbrt-v4's LightBounds::Importance), so nearby lights
 // facing the point are chosen more often than the power alone would choose
-// them. The infinite lights (environments, directional) with power are
-// chosen apart, uniformly, each as likely as the whole tree (pbrt's
-// pInfinite).
+// them. The infinite lights (environments, directional) with power stand
+// beside the tree's root, each weighed by the irradiance it gives an
+// unoccluded surface (Light::irradiance_estimate), the tree by the sum of its
+// root's importances at the point, which estimate irradiance too (as
+// Cycles' light tree weighs its distant lights against the local ones;
+// pbrt-v4 gives the infinite lights a fixed share, which spends half the
+// samples of a dim sky over a bright lamp on the sky).
 //
 // The tree is 8 wide (a binary SAH tree collapsed three levels at a time, as
 // Embree's BVH8): a node holds its children's bounds as arrays of 8, so one
@@ -50,7 +54,7 @@ struct SampledLight {
 
 // Trails: at most kLightTrailLevels levels of kLightBvhSlotBits; the top bits
 // mark the lights outside the tree.
-inline constexpr uint64_t kTrailInfinite = uint64_t(1) << 63;  // an infinite light with power
+inline constexpr uint64_t kTrailInfinite = uint64_t(1) << 63;  // an infinite light with power | its index among them
 inline constexpr uint64_t kTrailNone = uint64_t(1) << 62;      // no power: never chosen
 inline constexpr int kLightTrailLevels = 20;
 
@@ -158,17 +162,15 @@ struct BvhLightSampler {
   const LightBvhNode* nodes = nullptr;  // empty: no finite light with power
   uint32_t num_nodes = 0;
   const uint64_t* trails = nullptr;    // per light
-  const uint32_t* infinite = nullptr;  // the infinite lights with power
+  const uint32_t* infinite = nullptr;        // the infinite lights with power
+  const float* infinite_weight = nullptr;  // each one's irradiance estimate (> 0)
   uint32_t num_infinite = 0;
-  float p_infinite = 0.f;  // num_infinite / (num_infinite + (tree ? 1 : 0))
-  // The tree's light where it holds only one (else -1): chosen wherever the
-  // tree is, without its importance (pmf 1 within the tree, as the walk
-  // gives wherever that importance is positive). Where it is 0 (the light
-  // wholly below the surface's tangent plane, or facing away) the light's
-  // sample brings nothing either way (no pdf, or the side test), and no
-  // BSDF sample finds its emission, so the estimate is unchanged; the walk
-  // cost a scene of one emitter and a sky ~11% of its time (CPU, material
-  // spheres).
+  float infinite_total = 0.f;  // their sum
+  // The tree's light where it holds only one and no infinite light stands
+  // beside it (else -1): chosen with pmf 1, without its importance (as the
+  // walk gives wherever that importance is positive; where it is 0 the
+  // light's sample brings nothing either way and no BSDF sample finds its
+  // emission, so the estimate is unchanged).
   int32_t only = -1;
 
   // The importance of each of a node's children at the context's point:
@@ -217,22 +219,35 @@ struct BvhLightSampler {
     return n.x != 0.f || n.y != 0.f || n.z != 0.f ? 0.f : 2.f;
   }
 
+  // The root's importances and their sum, the tree's weight against the
+  // infinite lights' (0 without a tree).
+  LUZ_FORCE_INLINE float root_importances(const LightSampleContext& ctx, float imp[kLightBvhWidth]) const {
+    if (num_nodes == 0) return 0.f;
+    importances(nodes[0], ctx, imp);
+    float total = 0.f;
+    for (int i = 0; i < kLightBvhWidth; ++i) total += imp[i];
+    return total;
+  }
+
   // Sample reuse: u is rescaled to [0, 1) within each choice.
   LUZ_INLINE SampledLight sample(const LightSampleContext& ctx, float& u) const {
-    if (u < p_infinite) {
-      const float x = u / p_infinite * float(num_infinite);
-      const uint32_t i = min(uint32_t(x), num_infinite - 1);
-      u = min(x - float(i), kOneMinusEpsilon);
-      return {infinite[i], p_infinite / float(num_infinite)};
+    if (only >= 0) return {uint32_t(only), 1.f};
+    float imp[kLightBvhWidth], c[kLightBvhWidth];  // c: where each child's stretch of [0, total) starts
+    const float tree = root_importances(ctx, imp), all = infinite_total + tree;
+    if (!(all > 0.f)) return {};
+    const float t_all = u * all;
+    if (t_all < infinite_total || !(tree > 0.f)) {
+      uint32_t i = 0;
+      float start = 0.f;
+      while (i + 1 < num_infinite && start + infinite_weight[i] <= t_all) start += infinite_weight[i++];
+      u = min((t_all - start) / infinite_weight[i], kOneMinusEpsilon);
+      return {infinite[i], infinite_weight[i] / all};
     }
-    if (num_nodes == 0) return {};
-    u = min((u - p_infinite) / (1.f - p_infinite), kOneMinusEpsilon);
-    float pmf = 1.f - p_infinite;
-    if (only >= 0) return {uint32_t(only), pmf};
+    u = min((t_all - infinite_total) / tree, kOneMinusEpsilon);
+    float pmf = tree / all;
     uint32_t k = 0;
     for (int level = 0; level < kLightTrailLevels; ++level) {
-      float imp[kLightBvhWidth], c[kLightBvhWidth];  // c: where each child's stretch of [0, total) starts
-      importances(nodes[k], ctx, imp);
+      if (level > 0) importances(nodes[k], ctx, imp);
       float total = 0.f;
       for (int i = 0; i < kLightBvhWidth; ++i) c[i] = total, total += imp[i];
       if (!(total > 0.f)) return {};
@@ -259,14 +274,16 @@ struct BvhLightSampler {
 
   LUZ_INLINE float pmf(const LightSampleContext& ctx, uint32_t light) const {
     uint64_t t = trails[light];
-    if (t & kTrailInfinite) return p_infinite / float(num_infinite);
     if (t & kTrailNone) return 0.f;
-    float pmf = 1.f - p_infinite;
-    if (only >= 0) return pmf;
+    if (only >= 0) return 1.f;
+    float imp[kLightBvhWidth];
+    const float tree = root_importances(ctx, imp), all = infinite_total + tree;
+    if (!(all > 0.f)) return 0.f;
+    if (t & kTrailInfinite) return infinite_weight[uint32_t(t)] / all;
+    float pmf = tree / all;
     uint32_t k = 0;
     for (int level = 0; level < kLightTrailLevels; ++level) {
-      float imp[kLightBvhWidth];
-      importances(nodes[k], ctx, imp);
+      if (level > 0) importances(nodes[k], ctx, imp);
       float total = 0.f;
       for (int i = 0; i < kLightBvhWidth; ++i) total += imp[i];
       const uint32_t slot = uint32_t(t) & (kLightBvhWidth - 1);
@@ -288,7 +305,8 @@ struct LightBvhData {
   std::vector<LightBvhNode> nodes;
   std::vector<uint64_t> trails;
   std::vector<uint32_t> infinite;
-  float p_infinite = 0.f;
+  std::vector<float> infinite_weight;
+  float infinite_total = 0.f;
 
   BvhLightSampler view() const {
     BvhLightSampler s;
@@ -296,11 +314,13 @@ struct LightBvhData {
     s.num_nodes = uint32_t(nodes.size());
     s.trails = trails.data();
     s.infinite = infinite.data();
+    s.infinite_weight = infinite_weight.data();
     s.num_infinite = uint32_t(infinite.size());
-    s.p_infinite = p_infinite;
-    // One light in the tree: a lone root whose one child with power is it.
+    s.infinite_total = infinite_total;
+    // One light in the tree, alone: a lone root whose one child with power is it.
     const auto powered = [](float phi) { return phi > 0.f; };
-    if (nodes.size() == 1 && std::count_if(nodes[0].phi, nodes[0].phi + kLightBvhWidth, powered) == 1) {
+    if (infinite.empty() && nodes.size() == 1 &&
+        std::count_if(nodes[0].phi, nodes[0].phi + kLightBvhWidth, powered) == 1) {
       const int i = int(std::find_if(nodes[0].phi, nodes[0].phi + kLightBvhWidth, powered) - nodes[0].phi);
       s.only = int32_t(nodes[0].child[i] & kLightBvhIndex);
     }

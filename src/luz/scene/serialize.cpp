@@ -11,7 +11,7 @@ namespace {
 // A field added to Scene must be added to fields() below: this trips first
 // (on the x86-64 libstdc++ build that CI runs).
 #if defined(__x86_64__) && defined(__GLIBCXX__)
-static_assert(sizeof(Scene) == 776, "Scene changed: list its new fields in serialize.cpp's fields()");
+static_assert(sizeof(Scene) == 800, "Scene changed: list its new fields in serialize.cpp's fields()");
 #endif
 
 // Every member of a Scene, loaded and compiled, once for both directions.
@@ -21,7 +21,7 @@ void fields(S& s, F&& f) {
   f(s.materials), f(s.texture_bindings), f(s.lights), f(s.textures), f(s.texels8), f(s.texelsf), f(s.srgb_table);
   f(s.camera), f(s.fov_axis), f(s.settings), f(s.objects), f(s.instances), f(s.flattened_instances), f(s.warnings);
   f(s.light_alias), f(s.light_pmf), f(s.light_bvh.nodes), f(s.light_bvh.trails), f(s.light_bvh.infinite);
-  f(s.light_bvh.p_infinite), f(s.lights_emit), f(s.light_data), f(s.tri_normals), f(s.environment);
+  f(s.light_bvh.infinite_weight), f(s.light_bvh.infinite_total), f(s.lights_emit), f(s.light_data), f(s.tri_normals), f(s.environment);
   f(s.bounds_min), f(s.bounds_max);
 }
 

@@ -346,6 +346,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.lights.sampler.bvh.nodes = up.upload(scene.light_bvh.nodes, "the light BVH");
   dev.lights.sampler.bvh.trails = up.upload(scene.light_bvh.trails, "the light BVH's bit trails");
   dev.lights.sampler.bvh.infinite = up.upload(scene.light_bvh.infinite, "the infinite lights");
+  dev.lights.sampler.bvh.infinite_weight = up.upload(scene.light_bvh.infinite_weight, "the infinite lights' weights");
   dev.lights.data.floats = up.upload(scene.light_data, "environment maps");
   dev.lights.data.textures = dev.textures;
   if (guide.view.regions) {
