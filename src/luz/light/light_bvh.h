@@ -235,15 +235,17 @@ struct BvhLightSampler {
     float imp[kLightBvhWidth], c[kLightBvhWidth];  // c: where each child's stretch of [0, total) starts
     const float tree = root_importances(ctx, imp), all = infinite_total + tree;
     if (!(all > 0.f)) return {};
-    const float t_all = u * all;
-    if (t_all < infinite_total || !(tree > 0.f)) {
-      uint32_t i = 0;
-      float start = 0.f;
-      while (i + 1 < num_infinite && start + infinite_weight[i] <= t_all) start += infinite_weight[i++];
-      u = min((t_all - start) / infinite_weight[i], kOneMinusEpsilon);
-      return {infinite[i], infinite_weight[i] / all};
+    if (num_infinite > 0) {  // (without, u stays as it is)
+      const float t_all = u * all;
+      if (t_all < infinite_total || !(tree > 0.f)) {
+        uint32_t i = 0;
+        float start = 0.f;
+        while (i + 1 < num_infinite && start + infinite_weight[i] <= t_all) start += infinite_weight[i++];
+        u = min((t_all - start) / infinite_weight[i], kOneMinusEpsilon);
+        return {infinite[i], infinite_weight[i] / all};
+      }
+      u = min((t_all - infinite_total) / tree, kOneMinusEpsilon);
     }
-    u = min((t_all - infinite_total) / tree, kOneMinusEpsilon);
     float pmf = tree / all;
     uint32_t k = 0;
     for (int level = 0; level < kLightTrailLevels; ++level) {
