@@ -267,6 +267,20 @@ TEST_F(EnvImages, EstimatorsAgreeUnderAnEnvmap) {
   expect_agree(bsdf, light, 3, "bsdf vs light");
 }
 
+// The envmap beside a lamp (a small rectangle overhead): the light BVH weighs
+// the map by its mean irradiance against the lamp's importance at each
+// point, and the path tracer's MIS by those pmfs must still agree with
+// BSDF sampling alone.
+TEST_F(EnvImages, EstimatorsAgreeUnderAnEnvmapAndALamp) {
+  const std::string file = write_map("sky.pfm", smooth_map(32, 17));
+  const std::string emitters = R"(<emitter type="envmap"><string name="filename" value=")" + file + R"("/>
+    <float name="scale" value="0.3"/></emitter>
+  <shape type="rectangle"><transform name="to_world"><scale value="0.5"/><rotate x="1" angle="90"/>
+    <translate y="2.5"/></transform><emitter type="area"><rgb name="radiance" value="20, 16, 12"/></emitter></shape>)";
+  const Film path = render(scene(emitters, "path", 256), 21), bsdf = render(scene(emitters, "bsdf", 1024), 22);
+  expect_agree(path, bsdf, 1, "path vs bsdf, envmap and lamp");
+}
+
 // A lone diffuse sphere (albedo ρ) under an envmap, seen by an orthographic
 // camera: a pixel inside the disk shows ρ/π · E(n), E(n) = ∫ L(ω) max(0, n·ω) dω
 // for the normal n where the (parallel) rays meet the sphere; a convex
