@@ -197,8 +197,10 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       if (lights.environment >= 0) {
         const Light& env = lights[uint32_t(lights.environment)];
         Le = le(env, ray.d, lights.data);
-        const LightSampleContext prev_ctx{prev_p, {}, st.prev_ns, st.prev_hemisphere};
-        light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(lights.environment)) * pdf_li(env, prev_ctx, ray.d, {}, lights.data);
+        if (!is_black(Le) && weigh && use_mis) {  // the light BVH's pmf walks its root
+          const LightSampleContext prev_ctx{prev_p, {}, st.prev_ns, st.prev_hemisphere};
+          light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(lights.environment)) * pdf_li(env, prev_ctx, ray.d, {}, lights.data);
+        }
       }
     } else {
       it = scene.interaction(ray, hit);
