@@ -166,11 +166,12 @@ struct BvhLightSampler {
   const float* infinite_weight = nullptr;  // each one's irradiance estimate (> 0)
   uint32_t num_infinite = 0;
   float infinite_total = 0.f;  // their sum
-  // The tree's light where it holds only one and no infinite light stands
-  // beside it (else -1): chosen with pmf 1, without its importance (as the
-  // walk gives wherever that importance is positive; where it is 0 the
-  // light's sample brings nothing either way and no BSDF sample finds its
-  // emission, so the estimate is unchanged).
+  // The tree's light where it holds only one (else -1): chosen without the
+  // walk. With no infinite light beside it, with pmf 1 and without its
+  // importance (as the walk gives wherever that importance is positive;
+  // where it is 0 the light's sample brings nothing either way and no BSDF
+  // sample finds its emission, so the estimate is unchanged); beside them,
+  // with the tree's share, which its importance sets.
   int32_t only = -1;
 
   // The importance of each of a node's children at the context's point:
@@ -231,7 +232,7 @@ struct BvhLightSampler {
 
   // Sample reuse: u is rescaled to [0, 1) within each choice.
   LUZ_INLINE SampledLight sample(const LightSampleContext& ctx, float& u) const {
-    if (only >= 0) return {uint32_t(only), 1.f};
+    if (only >= 0 && num_infinite == 0) return {uint32_t(only), 1.f};
     float imp[kLightBvhWidth], c[kLightBvhWidth];  // c: where each child's stretch of [0, total) starts
     const float tree = root_importances(ctx, imp), all = infinite_total + tree;
     if (!(all > 0.f)) return {};
@@ -247,6 +248,7 @@ struct BvhLightSampler {
       u = min((t_all - infinite_total) / tree, kOneMinusEpsilon);
     }
     float pmf = tree / all;
+    if (only >= 0) return {uint32_t(only), pmf};  // the walk's one child: total = its importance
     uint32_t k = 0;
     for (int level = 0; level < kLightTrailLevels; ++level) {
       if (level > 0) importances(nodes[k], ctx, imp);
@@ -277,12 +279,13 @@ struct BvhLightSampler {
   LUZ_INLINE float pmf(const LightSampleContext& ctx, uint32_t light) const {
     uint64_t t = trails[light];
     if (t & kTrailNone) return 0.f;
-    if (only >= 0) return 1.f;
+    if (only >= 0 && num_infinite == 0) return 1.f;
     float imp[kLightBvhWidth];
     const float tree = root_importances(ctx, imp), all = infinite_total + tree;
     if (!(all > 0.f)) return 0.f;
     if (t & kTrailInfinite) return infinite_weight[uint32_t(t)] / all;
     float pmf = tree / all;
+    if (only >= 0) return pmf;
     uint32_t k = 0;
     for (int level = 0; level < kLightTrailLevels; ++level) {
       if (level > 0) importances(nodes[k], ctx, imp);
@@ -319,10 +322,9 @@ struct LightBvhData {
     s.infinite_weight = infinite_weight.data();
     s.num_infinite = uint32_t(infinite.size());
     s.infinite_total = infinite_total;
-    // One light in the tree, alone: a lone root whose one child with power is it.
+    // One light in the tree: a lone root whose one child with power is it.
     const auto powered = [](float phi) { return phi > 0.f; };
-    if (infinite.empty() && nodes.size() == 1 &&
-        std::count_if(nodes[0].phi, nodes[0].phi + kLightBvhWidth, powered) == 1) {
+    if (nodes.size() == 1 && std::count_if(nodes[0].phi, nodes[0].phi + kLightBvhWidth, powered) == 1) {
       const int i = int(std::find_if(nodes[0].phi, nodes[0].phi + kLightBvhWidth, powered) - nodes[0].phi);
       s.only = int32_t(nodes[0].child[i] & kLightBvhIndex);
     }
