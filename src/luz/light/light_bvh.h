@@ -161,8 +161,8 @@ LUZ_FORCE_INLINE F importance(F cx, F cy, F cz, F r, F wx, F wy, F wz, F phi, F 
 struct BvhLightSampler {
   const LightBvhNode* nodes = nullptr;  // empty: no finite light with power
   uint32_t num_nodes = 0;
-  const uint64_t* trails = nullptr;    // per light
-  const uint32_t* infinite = nullptr;        // the infinite lights with power
+  const uint64_t* trails = nullptr;        // per light
+  const uint32_t* infinite = nullptr;      // the infinite lights with power
   const float* infinite_weight = nullptr;  // each one's irradiance estimate (> 0)
   uint32_t num_infinite = 0;
   float infinite_total = 0.f;  // their sum
