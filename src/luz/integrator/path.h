@@ -112,6 +112,7 @@ struct PathState {
   Vec3 prev_p;               // where `ray` started
   Vec3 prev_ns;              // the shading normal there (zero at the camera): the light sampler's context
   Vec3 prev_hemisphere;      // and the hemisphere light reaches it from (LightSampleContext)
+  float prev_light_sum = 0.f;  // its light sample's SampledLight::sum (the sky's pmf there)
   int depth = 1;             // the vertex `ray` will find
   bool alive = true;
 };
@@ -197,9 +198,10 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       if (lights.environment >= 0) {
         const Light& env = lights[uint32_t(lights.environment)];
         Le = le(env, ray.d, lights.data);
-        if (!is_black(Le) && weigh && use_mis) {  // the light BVH's pmf walks its root
+        if (!is_black(Le) && weigh && use_mis) {  // (weighed: the previous vertex sampled a light)
           const LightSampleContext prev_ctx{prev_p, {}, st.prev_ns, st.prev_hemisphere};
-          light_pdf = lights.sampler.pmf(prev_ctx, uint32_t(lights.environment)) * pdf_li(env, prev_ctx, ray.d, {}, lights.data);
+          light_pdf = lights.sampler.pmf_infinite(uint32_t(lights.environment), st.prev_light_sum) *
+                      pdf_li(env, prev_ctx, ray.d, {}, lights.data);
         }
       }
     } else {
@@ -248,6 +250,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     // 2D, + 1: lobe 1D, + 2: direction 2D, + 3: Russian roulette 1D).
     const bool nee = use_nee && lights.sampler.n > 0 && (plain || !bsdf.delta_only());
     Vec2 u_light2 = u.light;  // its x may be replaced (sample reuse, below)
+    float light_sum = 0.f;
     const float u_bsdf = plain ? 0.f : sampler.draw_1d(base_dim + 1, 0);  // Lambert: no lobe choice
 
     // Next-event estimation (not at delta-only vertices: f is 0 there).
@@ -259,6 +262,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
       // quantised points), so that case takes a fresh value instead.
       const LightSampleContext ctx{it.p, it.ng, it.ns, hemisphere};
       const SampledLight sl = lights.sampler.sample(ctx, u_light2.x);
+      light_sum = sl.sum;
       if (sl.pmf < kMinReusePmf) u_light2.x = sampler.aux_1d(base_dim);
       const LightSample ls = sample_li(lights[sl.light], ctx, u_light2, lights.data);
       if (ls.pdf > 0.f && sl.pmf > 0.f) {
@@ -320,6 +324,7 @@ LUZ_FORCE_INLINE void path_vertex(const SceneView& scene, PathState& st, bool fo
     prev_p = it.p;
     st.prev_ns = it.ns;
     st.prev_hemisphere = hemisphere;
+    st.prev_light_sum = light_sum;
     if (bs.transmission) eta_acc *= bs.eta;
 
     // Russian roulette on the throughput without the η² of refraction.

@@ -50,6 +50,10 @@ static_assert(sizeof(LightBvhNode) == 6 * 64, "LightBvhNode: 12 arrays of 8, six
 struct SampledLight {
   uint32_t light = 0;
   float pmf = 0.f;  // 0: no light chosen (none emits toward the point)
+  // The light BVH's: the sum of the weights it chose among at the point
+  // (the infinite lights' and the tree's), from which pmf_infinite gives an
+  // infinite light's pmf there without computing them again.
+  float sum = 0.f;
 };
 
 // Trails: at most kLightTrailLevels levels of kLightBvhSlotBits; the top bits
@@ -230,7 +234,8 @@ struct BvhLightSampler {
     return total;
   }
 
-  // Sample reuse: u is rescaled to [0, 1) within each choice.
+  // Sample reuse: u is rescaled to [0, 1) within each choice. The result's
+  // sum: as the pmfs' denominator, also where no light is chosen.
   LUZ_INLINE SampledLight sample(const LightSampleContext& ctx, float& u) const {
     if (only >= 0 && num_infinite == 0) return {uint32_t(only), 1.f};
     float imp[kLightBvhWidth], c[kLightBvhWidth];  // c: where each child's stretch of [0, total) starts
@@ -243,18 +248,18 @@ struct BvhLightSampler {
         float start = 0.f;
         while (i + 1 < num_infinite && start + infinite_weight[i] <= t_all) start += infinite_weight[i++];
         u = min((t_all - start) / infinite_weight[i], kOneMinusEpsilon);
-        return {infinite[i], infinite_weight[i] / all};
+        return {infinite[i], infinite_weight[i] / all, all};
       }
       u = min((t_all - infinite_total) / tree, kOneMinusEpsilon);
     }
     float pmf = tree / all;
-    if (only >= 0) return {uint32_t(only), pmf};  // the walk's one child: total = its importance
+    if (only >= 0) return {uint32_t(only), pmf, all};  // the walk's one child: total = its importance
     uint32_t k = 0;
     for (int level = 0; level < kLightTrailLevels; ++level) {
       if (level > 0) importances(nodes[k], ctx, imp);
       float total = 0.f;
       for (int i = 0; i < kLightBvhWidth; ++i) c[i] = total, total += imp[i];
-      if (!(total > 0.f)) return {};
+      if (!(total > 0.f)) return {0, 0.f, all};
       // The child whose stretch holds u·total: the last with importance
       // starting at or below it (the first with importance, if rounding puts
       // u·total below every start). Each lane's test stands alone, so the
@@ -270,10 +275,19 @@ struct BvhLightSampler {
       pmf *= chosen / total;
       u = min((t - start) / chosen, kOneMinusEpsilon);
       const uint32_t child = nodes[k].child[j];
-      if (child & kLightBvhLeaf) return {child & kLightBvhIndex, pmf};
+      if (child & kLightBvhLeaf) return {child & kLightBvhIndex, pmf, all};
       k = child & kLightBvhIndex;
     }
-    return {};
+    return {0, 0.f, all};
+  }
+
+  // pmf(ctx, light) of an infinite light, from the sum sample(ctx) gave:
+  // the same float.
+  LUZ_INLINE float pmf_infinite(uint32_t light, float sum) const {
+    const uint64_t t = trails[light];
+    if (t & kTrailNone) return 0.f;
+    if (!(sum > 0.f)) return 0.f;
+    return infinite_weight[uint32_t(t)] / sum;
   }
 
   LUZ_INLINE float pmf(const LightSampleContext& ctx, uint32_t light) const {

@@ -46,6 +46,12 @@ struct LightSampler {
     if (n == 1) return 1.f;
     return type == LightSamplerType::Bvh ? bvh.pmf(ctx, light) : power.pmf(ctx, light);
   }
+  // pmf(ctx, light) of an infinite light (an environment, a directional
+  // light), from the sum of what sample(ctx) returned at the same context.
+  LUZ_INLINE float pmf_infinite(uint32_t light, float sum) const {
+    if (n == 1) return 1.f;
+    return type == LightSamplerType::Bvh ? bvh.pmf_infinite(light, sum) : power.pmf({}, light);
+  }
 };
 
 }  // namespace luz
