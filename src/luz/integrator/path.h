@@ -104,16 +104,16 @@ inline constexpr float kMinReusePmf = 1.f / 256.f;
 // What a path carries from one vertex to the next: all a wavefront keeps per
 // path between its kernels (device/cuda/wavefront.h), besides its Sampler.
 struct PathState {
-  Ray ray;                   // the ray to trace next
+  Ray ray;                     // the ray to trace next
   Color L{}, beta{1.f, 1.f, 1.f};
-  float prev_pdf = 0.f;      // solid-angle pdf of the BSDF sample that made `ray`
-  bool prev_delta = false;   // that sample came from a delta lobe
-  float eta_acc = 1.f;       // product of BsdfSample::eta (Russian roulette)
-  Vec3 prev_p;               // where `ray` started
-  Vec3 prev_ns;              // the shading normal there (zero at the camera): the light sampler's context
-  Vec3 prev_hemisphere;      // and the hemisphere light reaches it from (LightSampleContext)
+  float prev_pdf = 0.f;        // solid-angle pdf of the BSDF sample that made `ray`
+  bool prev_delta = false;     // that sample came from a delta lobe
+  float eta_acc = 1.f;         // product of BsdfSample::eta (Russian roulette)
+  Vec3 prev_p;                 // where `ray` started
+  Vec3 prev_ns;                // the shading normal there (zero at the camera): the light sampler's context
+  Vec3 prev_hemisphere;        // and the hemisphere light reaches it from (LightSampleContext)
   float prev_light_sum = 0.f;  // its light sample's SampledLight::sum (the sky's pmf there)
-  int depth = 1;             // the vertex `ray` will find
+  int depth = 1;               // the vertex `ray` will find
   bool alive = true;
 };
 

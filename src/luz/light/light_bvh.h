@@ -281,8 +281,8 @@ struct BvhLightSampler {
     return {0, 0.f, all};
   }
 
-  // pmf(ctx, light) of an infinite light, from the sum sample(ctx) gave:
-  // the same float.
+  // pmf(ctx, light) of an infinite light, from the sum sample(ctx) gave
+  // (pmf() computes that sum, then this).
   LUZ_INLINE float pmf_infinite(uint32_t light, float sum) const {
     const uint64_t t = trails[light];
     if (t & kTrailNone) return 0.f;
@@ -297,7 +297,7 @@ struct BvhLightSampler {
     float imp[kLightBvhWidth];
     const float tree = root_importances(ctx, imp), all = infinite_total + tree;
     if (!(all > 0.f)) return 0.f;
-    if (t & kTrailInfinite) return infinite_weight[uint32_t(t)] / all;
+    if (t & kTrailInfinite) return pmf_infinite(light, all);
     float pmf = tree / all;
     if (only >= 0) return pmf;
     uint32_t k = 0;
