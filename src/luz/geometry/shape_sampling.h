@@ -57,6 +57,110 @@ LUZ_FORCE_INLINE ShapeSample triangle_sample(Vec3 v0, Vec3 v1, Vec3 v2, Vec3 n, 
   return planar_sample(triangle_point(v0, v1, v2, u), n, area, ref);
 }
 
+// Triangle lights are sampled uniformly in the solid angle they subtend where
+// it lies in [min, max] steradians, by area elsewhere: below min the
+// spherical map loses precision (and area sampling is nearly uniform in
+// solid angle there anyway), above max (near a hemisphere) too.
+inline constexpr float kSphericalTriangleMin = 3e-4f, kSphericalTriangleMax = 6.22f;
+
+// A triangle as seen from ref: the unit directions to its vertices and the
+// solid angle it subtends (Van Oosterom & Strackee 1983),
+// tan(Ω/2) = |a·(b×c)| / (1 + a·b + a·c + b·c), with |a·(b×c)| =
+// 2 · area · height / (l0 l1 l2) (height: ref's above the triangle's
+// plane, given by the caller), so that a small or distant triangle keeps
+// its precision.
+struct SphericalTriangle {
+  Vec3 a, b, c;
+  float omega;
+  float height;
+};
+LUZ_INLINE SphericalTriangle spherical_triangle(Vec3 v0, Vec3 v1, Vec3 v2, float area, float height, Vec3 ref) {
+  const Vec3 d0 = v0 - ref, d1 = v1 - ref, d2 = v2 - ref;
+  const float l0 = length(d0), l1 = length(d1), l2 = length(d2);
+  SphericalTriangle t;
+  t.height = height;
+  t.a = d0 * (1.f / l0);
+  t.b = d1 * (1.f / l1);
+  t.c = d2 * (1.f / l2);
+  t.omega = 2.f * atan2f(2.f * area * height / (l0 * l1 * l2), 1.f + dot(t.a, t.b) + dot(t.a, t.c) + dot(t.b, t.c));
+  return t;
+}
+
+// Uniform in the solid angle of triangle v0 v1 v2 seen from ref, t from
+// spherical_triangle (Arvo 1995): u.x picks the sub-triangle (a, b, c')
+// of area A' = u.x·Ω, c' on the arc from a to c, u.y a direction on the
+// arc from b to c' (uniform in the area it sweeps: 1 - cos linear in u.y).
+// The arc b' from a to c' from the excess of two sides and their angle α,
+// tan(A'/2) = tan(b'/2) tan(c/2) sin α / (1 + tan(b'/2) tan(c/2) cos α),
+// solved as tan(b'/2) = sin(A'/2) / (tan(c/2) sin(α - A'/2)), and every
+// difference of near directions taken from their chord: no cancellation
+// for small triangles (Arvo's cos b' loses them). The point is where the
+// direction meets the triangle; b gets its barycentrics (of v1, v2).
+// n: the emitting normal facing ref. pdf 1/Ω.
+LUZ_INLINE ShapeSample spherical_triangle_sample(const SphericalTriangle& t, Vec3 v0, Vec3 v1, Vec3 v2, Vec3 n, Vec3 ref,
+                                                 Vec2 u, Vec2* barycentrics) {
+  ShapeSample ss;
+  const Vec3 a = t.a, bv = t.b, c = t.c;
+  const float omega = t.omega;
+  // α, the angle at a between the arcs to b and to c, by its cosine and sine.
+  const Vec3 n_ab = cross(a, bv), n_ac = cross(a, c);
+  const float inv_norms = 1.f / sqrtf(length_squared(n_ab) * length_squared(n_ac));
+  const float cos_alpha = dot(n_ab, n_ac) * inv_norms, sin_alpha = length(cross(n_ab, n_ac)) * inv_norms;
+  const float tan_half_c = length(bv - a) / length(bv + a);
+  const float half_area = 0.5f * u.x * omega, sin_h = sinf(half_area), cos_h = cosf(half_area);
+  const float x = sin_h / (tan_half_c * (sin_alpha * cos_h - cos_alpha * sin_h));  // tan(b'/2)
+  if (!(x >= 0.f) || !(x < kInfinity)) return ss;
+  // c' = a cos b' + (the unit tangent at a toward c) sin b'; c - a (a·c) = (c - a) + a (1 - a·c).
+  const Vec3 ac = c - a;
+  const Vec3 to_c = normalize(ac + a * (0.5f * length_squared(ac)));
+  const float x2 = x * x, inv = 1.f / (1.f + x2);
+  const Vec3 cp = a * ((1.f - x2) * inv) + to_c * (2.f * x * inv);
+  // On the arc from b to c': 1 - cos θ = u.y (1 - b·c'), each from chords.
+  const Vec3 bc = cp - bv;
+  const float one_minus_cos = 0.5f * length_squared(bc) * u.y;
+  const Vec3 to_cp = normalize(bc + bv * (0.5f * length_squared(bc)));
+  const Vec3 w = bv * (1.f - one_minus_cos) + to_cp * safe_sqrt(one_minus_cos * (2.f - one_minus_cos));
+  // Where w meets the triangle's plane (ref at t.height above it); the
+  // barycentrics of that point for a textured light.
+  ss.dist = t.height / -dot(n, w);
+  if (!(ss.dist > 0.f) || !(ss.dist < kInfinity)) return ss;
+  ss.wi = w;
+  ss.p = ref + w * ss.dist;
+  ss.n = n;
+  if (barycentrics) {
+    const Vec3 e1 = v1 - v0, e2 = v2 - v0, q = ss.p - v0, m = cross(e1, e2);
+    const float inv = 1.f / length_squared(m);
+    barycentrics->x = fminf(fmaxf(dot(cross(q, e2), m) * inv, 0.f), 1.f);
+    barycentrics->y = fminf(fmaxf(dot(cross(e1, q), m) * inv, 0.f), 1.f - barycentrics->x);
+  }
+  ss.pdf = 1.f / omega;
+  return ss;
+}
+
+// The point of [0, 1)² spherical_triangle_sample maps to the unit
+// direction w (toward the triangle): c' where the great circle through b
+// and w meets the arc from a to c, u.x the area of (a, b, c') over Ω, u.y
+// (1 - b·w) / (1 - b·c') from chords.
+LUZ_INLINE Vec2 spherical_triangle_invert(const SphericalTriangle& t, Vec3 w) {
+  Vec3 cp = normalize(cross(cross(t.b, w), cross(t.c, t.a)));
+  if (dot(cp, t.a + t.c) < 0.f) cp = -cp;
+  const Vec3 bc = cp - t.b;
+  const float det = fabsf(dot(t.a - t.b, cross(t.b, bc)));  // |a·(b×c')|
+  const float area = 2.f * atan2f(det, 1.f + dot(t.a, t.b) + dot(t.a, cp) + dot(t.b, cp));
+  const float chord2 = length_squared(bc);
+  return {fminf(area / t.omega, 0x1.fffffep-1f),
+          chord2 > 0.f ? fminf(length_squared(w - t.b) / chord2, 0x1.fffffep-1f) : 0.f};
+}
+
+// The cosines at a shading point of normal ns toward the triangle's
+// vertices at the corners of spherical_triangle_sample's square (u.y = 0
+// is b; u.y = 1 runs from a to c), at least 0.01 (pbrt-v4): warping the
+// square by them makes directions follow the cosine, roughly.
+LUZ_INLINE Bilinear spherical_triangle_cosines(const SphericalTriangle& t, Vec3 ns) {
+  const float cb = fmaxf(0.01f, fabsf(dot(ns, t.b)));
+  return {cb, cb, fmaxf(0.01f, fabsf(dot(ns, t.a))), fmaxf(0.01f, fabsf(dot(ns, t.c)))};
+}
+
 // Parallelogram: corner c and edges e1, e2 (points c + u e1 + v e2), uniform
 // by area from one 2D point (no square-root warp, no choice between halves).
 LUZ_FORCE_INLINE ShapeSample parallelogram_sample(Vec3 c, Vec3 e1, Vec3 e2, Vec3 n, float area, Vec3 ref, Vec2 u) {
