@@ -17,11 +17,8 @@ namespace {
 // a hemisphere down to a sphere of radius 1e-6 seen from distance 1.
 constexpr float kConeSin2[] = {1.f, 0.5f, 0.0011f, 2.5e-5f, 1e-8f, 1e-12f};
 constexpr float kPowerExponents[] = {1.f, 2.f, 5.f, 10.f, 50.f, 100.f, 1000.f};
-// Corner values of bilinear densities: a gentle slope, one corner at the
-// 0.01 floor, a ramp with zeros along an edge.
-constexpr Bilinear kBilinear[] = {{1.f, 0.8f, 0.6f, 0.9f}, {0.01f, 1.f, 0.5f, 0.2f}, {0.f, 0.f, 1.f, 1.f}};
-// disk, seed disk, cosine hemisphere, sphere, full-sphere cone, cones, powers, triangle, bilinear.
-constexpr int kChi2Tests = 4 + 1 + int(std::size(kConeSin2)) + int(std::size(kPowerExponents)) + 1 + int(std::size(kBilinear));
+// disk, seed disk, cosine hemisphere, sphere, full-sphere cone, cones, powers, triangle.
+constexpr int kChi2Tests = 4 + 1 + int(std::size(kConeSin2)) + int(std::size(kPowerExponents)) + 1;
 const double kThreshold = chi2::sidak(chi2::kAlpha, kChi2Tests);
 
 constexpr uint64_t kSamples = 200000;
@@ -241,35 +238,6 @@ TEST(Warp, TriangleBarycentricsChi2) {
   chi2::Result r = chi2::chi2_test(observed, expected);
   EXPECT_EQ(outside, 0u);
   EXPECT_TRUE(r.passes(kThreshold)) << r.summary();
-}
-
-// The bilinear warp over the unit square, 10 × 20 bins, against
-// bilinear_pdf; and that pdf against the corners' bilinear interpolation
-// normalised in double.
-TEST(Warp, BilinearChi2) {
-  int k = 0;
-  for (const Bilinear& w : kBilinear) {
-    chi2::Grid g;
-    g.total_mass = 1.0;
-    auto sample = [&](uint64_t i, double& x, double& y) {
-      const Vec2 p = square_to_bilinear(chi2::rand2(40 + k, i, 0), w);
-      x = p.x;
-      y = p.y;
-      return true;
-    };
-    const double sum = double(w.w00) + w.w10 + w.w01 + w.w11;
-    auto density = [&](double x, double y) {
-      return 4.0 * ((1 - x) * (1 - y) * w.w00 + x * (1 - y) * w.w10 + (1 - x) * y * w.w01 + x * y * w.w11) / sum;
-    };
-    chi2::Outcome o = chi2::run_grid(g, kSamples, sample, density);
-    std::printf("bilinear %g %g %g %g: %s\n", w.w00, w.w10, w.w01, w.w11, o.result.summary().c_str());
-    EXPECT_NEAR(o.mass, 1.0, 1e-6);
-    EXPECT_TRUE(o.result.passes(kThreshold)) << o.describe(kThreshold);
-    for (double x : {0.0, 0.3, 0.97})
-      for (double y : {0.0, 0.5, 0.99})
-        EXPECT_NEAR(bilinear_pdf({float(x), float(y)}, w), density(x, y), 1e-6 * (1.0 + density(x, y)));
-    ++k;
-  }
 }
 
 // Domain and pdf sanity over a grid of inputs (including the corners 0 and

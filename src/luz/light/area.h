@@ -117,46 +117,12 @@ struct TriangleLight : PlanarLight {
     const float b0 = 1.f - b.x - b.y;
     return radiance_at({uv0.x * b0 + uv1.x * b.x + uv2.x * b.y, uv0.y * b0 + uv1.y * b.x + uv2.y * b.y}, data);
   }
-  // The triangle seen from p; its omega is 0 where it is sampled by area
-  // (outside geometry/shape_sampling.h's range, or p behind it). sample_li
-  // and pdf_li decide from this same float.
-  LUZ_INLINE SphericalTriangle seen_from(Vec3 n, Vec3 p) const {
-    const float height = dot(n, p - v0);
-    if (!(height > 0.f)) return {{}, {}, {}, 0.f, 0.f};
-    SphericalTriangle t = spherical_triangle(v0, v1, v2, area, height, p);
-    if (!(t.omega >= kSphericalTriangleMin && t.omega <= kSphericalTriangleMax)) t.omega = 0.f;
-    return t;
-  }
   LUZ_FORCE_INLINE LightSample sample_li(const LightSampleContext& ctx, Vec2 u, const LightData& data) const {
     const Vec3 n = facing(v0, ctx.p);
-    const SphericalTriangle t = seen_from(n, ctx.p);
-    if (t.omega > 0.f) {
-      // Warped by the cosines at the shading point, where there is one.
-      float warp = 1.f;
-      if (!is_black(ctx.ns)) {
-        const Bilinear w = spherical_triangle_cosines(t, ctx.ns);
-        u = square_to_bilinear(u, w);
-        warp = bilinear_pdf(u, w);
-      }
-      Vec2 b;
-      ShapeSample ss = spherical_triangle_sample(t, v0, v1, v2, n, ctx.p, u, texture < 0 ? nullptr : &b);
-      ss.pdf *= warp;
-      return area_light_sample(ss, texture < 0 ? radiance : radiance_at_barycentrics(b, data));
-    }
     if (texture < 0) return area_light_sample(triangle_sample(v0, v1, v2, n, area, ctx.p, u), radiance);
     const Vec2 b = square_to_triangle_barycentrics(u);
     const ShapeSample ss = planar_sample(v0 * (1.f - b.x - b.y) + v1 * b.x + v2 * b.y, n, area, ctx.p);
     return area_light_sample(ss, radiance_at_barycentrics(b, data));
-  }
-  LUZ_INLINE float pdf_li(const LightSampleContext& ctx, Vec3 wi, const LightHit& h, const LightData&) const {
-    const Vec3 hn = two_sided && dot(h.n, wi) > 0.f ? -h.n : h.n;
-    const SphericalTriangle t = seen_from(facing(v0, ctx.p), ctx.p);
-    if (t.omega > 0.f) {
-      if (!(dot(hn, wi) < 0.f)) return 0.f;
-      if (is_black(ctx.ns)) return 1.f / t.omega;
-      return bilinear_pdf(spherical_triangle_invert(t, wi), spherical_triangle_cosines(t, ctx.ns)) / t.omega;
-    }
-    return planar_pdf(hn, area, wi, h.dist);
   }
   LUZ_INLINE LightLeSample sample_le(Vec2 u_pos, Vec2 u_dir, const LightData& data, Vec3, float) const {
     const Vec2 b = square_to_triangle_barycentrics(u_pos);

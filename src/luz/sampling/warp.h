@@ -72,29 +72,6 @@ LUZ_INLINE Vec2 square_to_triangle_barycentrics(Vec2 u) {
   return {1.f - s, u.y * s};
 }
 
-// Density ∝ (1 - x) a + x b on [0, 1) (a, b ≥ 0, not both 0), by
-// inverting its cumulative distribution in the form that stays exact as a
-// or b → 0 (pbrt-v4's SampleLinear).
-LUZ_INLINE float square_to_linear(float u, float a, float b) {
-  if (u == 0.f && a == 0.f) return 0.f;
-  const float x = u * (a + b) / (a + sqrtf(a * a + u * (b * b - a * a)));
-  return fminf(x, 0x1.fffffep-1f);
-}
-
-// The bilinear density on [0, 1)² through the corner values w00 (at x = 0,
-// y = 0), w10, w01, w11 (≥ 0, not all 0): y by its marginal, then x.
-struct Bilinear {
-  float w00, w10, w01, w11;
-};
-LUZ_INLINE Vec2 square_to_bilinear(Vec2 u, const Bilinear& w) {
-  const float y = square_to_linear(u.y, w.w00 + w.w10, w.w01 + w.w11);
-  return {square_to_linear(u.x, w.w00 + (w.w01 - w.w00) * y, w.w10 + (w.w11 - w.w10) * y), y};
-}
-LUZ_INLINE float bilinear_pdf(Vec2 p, const Bilinear& w) {
-  const float f = (1.f - p.y) * ((1.f - p.x) * w.w00 + p.x * w.w10) + p.y * ((1.f - p.x) * w.w01 + p.x * w.w11);
-  return 4.f * f / (w.w00 + w.w10 + w.w01 + w.w11);
-}
-
 // Cosine-power lobe around +z (Lafortune & Willems 1994): pdf (n+1)/(2π) cos^n θ.
 LUZ_INLINE Vec3 square_to_cosine_power(Vec2 u, float n) {
   float z = powf(u.x, 1.f / (n + 1.f));
