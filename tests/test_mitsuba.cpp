@@ -389,8 +389,35 @@ TEST_F(Mitsuba, FieldOfViewAxis) {
   c = load_fov("diagonal", 200, 100);
   EXPECT_NEAR(c.tan_half_x * c.tan_half_x + c.tan_half_y * c.tan_half_y, 1.f, kTol);
   EXPECT_NEAR(c.tan_half_x / c.tan_half_y, 2.f, kTol);
-  expect_error(scene("<shape type=\"sphere\"/>\n", "<string name=\"fov_axis\" value=\"z\"/>\n"), 2, "fov_axis");
+  expect_error(scene("<shape type=\"sphere\"/>\n", "<float name=\"fov\" value=\"90\"/><string name=\"fov_axis\" value=\"z\"/>\n"), 2, "fov_axis");
   expect_error(scene("<shape type=\"sphere\"/>\n", "<float name=\"fov\" value=\"180\"/>\n"), 2, "fov must be");
+}
+
+// Without a fov, Mitsuba 3's focal_length: "<x>mm" (default 50mm) on a
+// 36 × 24 mm film, a diagonal field of view: tan(fov/2) = √(36² + 24²) / 2f
+// along the film's diagonal, whatever its aspect.
+TEST_F(Mitsuba, FocalLength) {
+  auto load_sensor = [&](const std::string& params) {
+    return load(scene("<shape type=\"sphere\"/>\n", params +
+                                                        "<film type=\"hdrfilm\"><integer name=\"width\" value=\"300\"/>"
+                                                        "<integer name=\"height\" value=\"100\"/></film>\n"))
+        .camera;
+  };
+  auto diagonal = [](const luz::Camera& c) { return std::sqrt(c.tan_half_x * c.tan_half_x + c.tan_half_y * c.tan_half_y); };
+  const double film_diagonal = std::sqrt(36.0 * 36.0 + 24.0 * 24.0);
+  luz::Camera c = load_sensor("");
+  EXPECT_NEAR(diagonal(c), film_diagonal / (2 * 50), kTol);
+  EXPECT_NEAR(c.tan_half_x / c.tan_half_y, 3.f, kTol);
+  c = load_sensor("<string name=\"focal_length\" value=\"35mm\"/>");
+  EXPECT_NEAR(diagonal(c), film_diagonal / (2 * 35), kTol);
+  c = load_sensor("<string name=\"focal_length\" value=\"28\"/>");  // "mm" may be left out
+  EXPECT_NEAR(diagonal(c), film_diagonal / (2 * 28), kTol);
+  expect_error(scene("<shape type=\"sphere\"/>\n", "<float name=\"fov\" value=\"40\"/>\n<string name=\"focal_length\" value=\"35mm\"/>\n"), 2,
+               "either fov or focal_length");
+  expect_error(scene("<shape type=\"sphere\"/>\n", "<string name=\"focal_length\" value=\"wide\"/>\n"), 3, "not a number");
+  expect_error(scene("<shape type=\"sphere\"/>\n", "<string name=\"focal_length\" value=\"-35mm\"/>\n"), 3, "focal_length must be");
+  expect_error(scene("<shape type=\"sphere\"/>\n", "<float name=\"focal_length\" value=\"35\"/>\n"), 3, "wrong type");
+  expect_error(scene("<shape type=\"sphere\"/>\n", "<string name=\"fov_axis\" value=\"y\"/>\n"), 3, "fov_axis applies to a fov");
 }
 
 TEST_F(Mitsuba, FilmAndFilter) {

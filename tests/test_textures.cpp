@@ -24,6 +24,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <random>
@@ -247,6 +248,50 @@ TEST(ImageRead, TightestRunLengthTgaReads) {
   ASSERT_EQ(img.height, h);
   for (int y : {0, 1, 700, h - 1})
     for (int x : {0, 127, 128, 1000, w - 1}) EXPECT_EQ(img.rgba[size_t(y) * w + x] & 0xff, uint8_t(y + x / 128)) << x << "," << y;
+}
+
+using ImageFiles = TempDirTest;
+
+// PFM files of every kind the format has: RGB ("PF") and grey ("Pf", read
+// into all three channels), little-endian (negative scale) and big-endian
+// (positive), a scale other than 1 multiplying the values (as pbrt-v4 and
+// Mitsuba 3 read them), rows stored bottom to top. Bad headers and short
+// files are one-line errors.
+TEST_F(ImageFiles, PfmOfEveryKind) {
+  auto bytes = [](std::initializer_list<float> values, bool big_endian) {
+    std::string out;
+    for (float v : values) {
+      char b[4];
+      std::memcpy(b, &v, 4);
+      if (big_endian) std::swap(b[0], b[3]), std::swap(b[1], b[2]);
+      out.append(b, 4);
+    }
+    return out;
+  };
+  Image rgb = read_pfm(write("rgb.pfm", "PF\n2 1\n-1.0\n" + bytes({1, 2, 3, 4, 5, 6}, false)));
+  ASSERT_EQ(rgb.width, 2);
+  ASSERT_EQ(rgb.height, 1);
+  EXPECT_EQ(rgb.rgb, (std::vector<float>{1, 2, 3, 4, 5, 6}));
+  // Bottom row (10, 20) first.
+  Image grey = read_image_linear(write("grey.pfm", "Pf\n2 2\n-1\n" + bytes({10, 20, 30, 40}, false)));
+  EXPECT_EQ(grey.rgb, (std::vector<float>{30, 30, 30, 40, 40, 40, 10, 10, 10, 20, 20, 20}));
+  Image big = read_pfm(write("big.pfm", "PF\n1 1\n2.0\n" + bytes({1.5f, -0.25f, 8}, true)));
+  EXPECT_EQ(big.rgb, (std::vector<float>{3, -0.5f, 16}));
+  auto expect_error = [&](const std::string& name, const std::string& text, const std::string& problem) {
+    try {
+      read_image_linear(write(name, text));
+      ADD_FAILURE() << "no error for " << name;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(problem), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    }
+  };
+  expect_error("p6.pfm", "P6\n1 1\n255\n" + bytes({1}, false), "not a PFM");
+  expect_error("zero.pfm", "PF\n1 1\n0\n" + bytes({1, 2, 3}, false), "scale must be finite and non-zero");
+  expect_error("short.pfm", "Pf\n2 2\n-1\n" + bytes({1, 2, 3}, false), "truncated PFM");
+  expect_error("huge.pfm", "PF\n70000 1\n-1\n", "1 to 65536 a side");
+  // A file whose extension names no image format: the message lists them all.
+  expect_error("mesh.obj", "v 0 0 0\n", "supported: .exr, .hdr, .pfm, .png");
 }
 
 using TextureUv = TempDirTest;

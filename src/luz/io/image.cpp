@@ -10,6 +10,7 @@
 #include <ImfStringAttribute.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -350,6 +351,10 @@ Image read_exr(const std::string& path) {
   }
 }
 
+// PFM: "PF" (RGB) or "Pf" (grey, read into all three channels), then the
+// width, the height and a scale whose sign gives the byte order (negative:
+// little-endian) and whose magnitude multiplies the values (as pbrt-v4 and
+// Mitsuba 3 read it); rows bottom to top.
 Image read_pfm(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, 0, "cannot open");
@@ -358,21 +363,44 @@ Image read_pfm(const std::string& path) {
   double scale = 0;
   in >> magic >> w >> h >> scale;
   in.get();
-  if (!in || magic != "PF" || w <= 0 || h <= 0 || w > 65536 || h > 65536 || !(scale < 0))
-    throw InputError(path, 1, "not a little-endian RGB PFM");
+  if (!in || (magic != "PF" && magic != "Pf"))
+    throw InputError(path, 1, "not a PFM (its header must start with PF or Pf, the width, the height and a scale)");
+  if (w <= 0 || h <= 0 || w > 65536 || h > 65536)
+    throw InputError(path, 1, "a PFM of " + std::to_string(w) + "×" + std::to_string(h) + " pixels (1 to 65536 a side)");
+  if (!(std::isfinite(scale) && scale != 0))
+    throw InputError(path, 1, "a PFM's scale must be finite and non-zero (its sign gives the byte order)");
+  const int channels = magic == "PF" ? 3 : 1;
   // The header must promise no more pixels than the file holds.
   std::streamoff start = in.tellg();
   in.seekg(0, std::ios::end);
   std::streamoff size = in.tellg();
-  if (start < 0 || size - start < std::streamoff(w * h * 3 * sizeof(float))) throw InputError(path, 0, "truncated PFM");
+  if (start < 0 || size - start < std::streamoff(w * h * channels * sizeof(float)))
+    throw InputError(path, 0, "truncated PFM");
   in.seekg(start);
   require_pixels(path, w, h, 12);
+  std::vector<float> row(size_t(w) * channels);
   Image img;
   img.width = int(w);
   img.height = int(h);
   img.rgb.resize(size_t(w) * h * 3);
-  for (long long y = h - 1; y >= 0; --y)
-    in.read(reinterpret_cast<char*>(img.rgb.data() + size_t(y) * w * 3), std::streamsize(w) * 3 * sizeof(float));
+  const bool swap = (scale > 0) != (std::endian::native == std::endian::big);
+  const float factor = float(std::fabs(scale));
+  for (long long y = h - 1; y >= 0; --y) {
+    in.read(reinterpret_cast<char*>(row.data()), std::streamsize(row.size() * sizeof(float)));
+    float* out = img.rgb.data() + size_t(y) * w * 3;
+    for (size_t k = 0; k < row.size(); ++k) {
+      float v = row[k];
+      if (swap) {
+        uint32_t bits;
+        std::memcpy(&bits, &v, 4);
+        bits = __builtin_bswap32(bits);
+        std::memcpy(&v, &bits, 4);
+      }
+      if (factor != 1.f) v *= factor;
+      if (channels == 3) out[k] = v;
+      else out[3 * k] = out[3 * k + 1] = out[3 * k + 2] = v;
+    }
+  }
   if (!in) throw InputError(path, 0, "truncated PFM");
   return img;
 }
@@ -423,7 +451,10 @@ Image read_image_linear(const std::string& path) {
   if (e == ".hdr") {
     img = read_hdr(path);
   } else {
-    const Image8 ldr = read_image8(path);  // names the supported formats when e is none of them
+    if (e != ".jpg" && e != ".jpeg" && e != ".png" && e != ".tga" && e != ".bmp")
+      throw InputError(path, 0,
+                       "unsupported image format '" + e + "' (supported: .exr, .hdr, .pfm, .png, .jpg, .tga, .bmp)");
+    const Image8 ldr = read_image8(path);
     img.width = ldr.width;
     img.height = ldr.height;
     img.rgb.resize(ldr.rgba.size() * 3);

@@ -80,8 +80,22 @@ void MitsubaParser::parse_sensor(pugi::xml_node n) {
   double fov = 30.0, ppx = 0.0, ppy = 0.0;
   std::string axis = "x";
   if (projective) {
-    fov = p.get_float("fov", 30.0);
-    axis = p.get_string("fov_axis", "x");
+    // Mitsuba 3's parse_fov: a fov along fov_axis, or else a focal_length
+    // ("<x>mm", default 50mm) on a 36 × 24 mm film, a diagonal field of view.
+    if (p.has("fov") && p.has("focal_length")) error(n, "give either fov or focal_length, not both");
+    if (p.has("fov")) {
+      fov = p.get_float("fov", 30.0);
+      axis = p.get_string("fov_axis", "x");
+    } else {
+      if (p.has("fov_axis")) error(p.get("fov_axis", {"string"}), "fov_axis applies to a fov (a focal_length's is diagonal)");
+      const pugi::xml_node at = p.has("focal_length") ? p.get("focal_length", {"string"}) : n;
+      std::string f = p.get_string("focal_length", "50mm");
+      if (f.size() > 2 && f.compare(f.size() - 2, 2, "mm") == 0) f.resize(f.size() - 2);
+      const double mm = number(at, f);
+      if (!(mm > 0)) error(at, "focal_length must be a positive length in mm, as \"35mm\"");
+      fov = 2.0 * std::atan(std::sqrt(36.0 * 36.0 + 24.0 * 24.0) / (2.0 * mm)) * 180.0 / M_PI;
+      axis = "diagonal";
+    }
     ppx = p.get_float("principal_point_offset_x", 0.0);
     ppy = p.get_float("principal_point_offset_y", 0.0);
     // Far beyond any real lens shift; keeps the rays' directions finite.
