@@ -340,6 +340,54 @@ TEST_F(TextureUv, ObjCoordinatesInterpolateWithTheHitsBarycentrics) {
       }
 }
 
+// A textured mesh without texture coordinates takes each face's
+// barycentrics as uv, as Mitsuba 3 does (uv = (b1, b2) of the face's second
+// and third vertices): every face gets its own three vertices at uv (0, 0),
+// (1, 0), (0, 1), in the file's order, with the smooth normals the shared
+// vertices had (a bent pair of faces: the shared ones' normals agree). A
+// normal map there is an error (Mitsuba takes the tangents from the normal).
+TEST_F(TextureUv, MeshWithoutCoordinatesTakesTheBarycentrics) {
+  write("bent.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 1\nf 1 2 3\nf 1 3 4\n");
+  const std::string checker =
+      "<bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"checkerboard\"/></bsdf>";
+  Scene s = load_mitsuba(write("scene.xml", "<scene version=\"3.0.0\"><sensor type=\"perspective\"/>"
+                                            "<shape type=\"obj\"><string name=\"filename\" value=\"bent.obj\"/>" +
+                                                checker + "</shape></scene>"),
+                         {});
+  ASSERT_EQ(s.indices.size(), 6u);
+  ASSERT_EQ(s.positions.size(), 6u);
+  ASSERT_EQ(s.uvs.size(), 6u);
+  ASSERT_EQ(s.normals.size(), 6u);
+  const Vec3 file[4] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 1}};
+  const int faces[2][3] = {{0, 1, 2}, {0, 2, 3}};
+  const Vec2 corner_uv[3] = {{0, 0}, {1, 0}, {0, 1}};
+  for (int f = 0; f < 2; ++f)
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t v = s.indices[size_t(3 * f + c)];
+      EXPECT_EQ(length(s.positions[v] - file[faces[f][c]]), 0.f) << f << " " << c;
+      EXPECT_EQ(s.uvs[v].x, corner_uv[c].x) << f << " " << c;
+      EXPECT_EQ(s.uvs[v].y, corner_uv[c].y) << f << " " << c;
+    }
+  // The shared vertices 1 and 3 of the file: one smooth normal each, off both faces' own.
+  for (int shared : {0, 2}) {
+    const Vec3 a = s.normals[s.indices[size_t(shared)]], b = s.normals[s.indices[size_t(3 + (shared == 0 ? 0 : 1))]];
+    EXPECT_LT(length(a - b), 1e-6f) << shared;
+    EXPECT_LT(std::fabs(a.z), 0.999f) << shared;
+  }
+  try {
+    load_mitsuba(write("maps.xml", "<scene version=\"3.0.0\"><sensor type=\"perspective\"/>\n"
+                                   "<shape type=\"obj\"><string name=\"filename\" value=\"bent.obj\"/>"
+                                   "<bsdf type=\"normalmap\"><texture name=\"normalmap\" type=\"checkerboard\"/>" +
+                                       checker + "</bsdf></shape></scene>"),
+                 {});
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.line(), 2) << e.what();
+    EXPECT_NE(std::string(e.what()).find("a normal or bump map on a mesh without texture coordinates"), std::string::npos)
+        << e.what();
+  }
+}
+
 // Meshes with and without texture coordinates in one scene: a cube (none), a
 // textured rectangle, an untextured OBJ, then a textured OBJ. uvs must stay one
 // per position, each textured mesh's vertices carrying its own coordinates, and

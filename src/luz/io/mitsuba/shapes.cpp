@@ -153,14 +153,11 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
 
   // Textures, masks, normal and bump maps need texture coordinates: the
   // built-in shapes have them (the sphere's are computed at each hit),
-  // meshes where their files do. Only a textured shape keeps them (see
-  // read_obj).
+  // meshes where their files do, or else each face's barycentrics (below).
+  // Only a textured shape keeps them (see read_obj).
   const Material& mat = builder_.scene().materials[size_t(material)];
   const bool textured_bsdf = mat.num_bindings > 0 || mat.opacity_texture >= 0 || mat.normal_map >= 0 || mat.bump_map >= 0;
   const bool textured = textured_bsdf || area.texture >= 0;
-  auto refuse_texture = [&](const std::string& why) {
-    if (textured) error(n, std::string(textured_bsdf ? "a textured bsdf on " : "a textured emitter on ") + why);
-  };
   std::vector<Vec3> pos, nrm;
   std::vector<Vec2> uv;
   std::vector<uint32_t> idx;
@@ -169,6 +166,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
   bool flat = true;
   bool face_normals = false;  // a mesh file's: shade flat
   double smooth_angle = -1;   // a mesh file's max_smooth_angle (< 0: none)
+  bool barycentric_uv = false;  // a textured mesh file without texture coordinates
   if (type == "sphere") {
     if (object >= 0) error(n, "a sphere inside a shapegroup is not supported (objects hold triangle meshes)");
     Vec3 center = p.get_point("center", {});
@@ -292,7 +290,13 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
       face_normals = face_normals || mesh.face_normals;
     }
     if (face_normals) nrm.clear();
-    if (textured && uv.empty()) refuse_texture("a mesh without texture coordinates ('" + file + "')");
+    if (textured && uv.empty()) {
+      // Mitsuba 3 takes such a mesh's tangents from the normal alone, which
+      // a normal or bump map would need here too.
+      if (mat.normal_map >= 0 || mat.bump_map >= 0)
+        error(n, "a normal or bump map on a mesh without texture coordinates ('" + file + "')");
+      barycentric_uv = true;
+    }
   }
   if (!textured) uv.clear();
 
@@ -308,6 +312,24 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
     // every normal is its faces' own, which flat shading gives exactly and
     // sooner.
     if (normals_are_flat(pos, idx, nrm)) nrm.clear();
+  }
+  if (barycentric_uv) {
+    // Mitsuba 3's uv where a mesh has none: each face's barycentrics (b1, b2)
+    // of its second and third vertices. Every face gets its own three
+    // vertices, at uv (0, 0), (1, 0), (0, 1), after the smooth normals.
+    std::vector<Vec3> face_pos, face_nrm;
+    face_pos.reserve(idx.size());
+    face_nrm.reserve(nrm.empty() ? 0 : idx.size());
+    uv.clear();
+    uv.reserve(idx.size());
+    for (size_t k = 0; k < idx.size(); ++k) {
+      face_pos.push_back(pos[idx[k]]);
+      if (!nrm.empty()) face_nrm.push_back(nrm[idx[k]]);
+      uv.push_back(k % 3 == 0 ? Vec2{0, 0} : k % 3 == 1 ? Vec2{1, 0} : Vec2{0, 1});
+      idx[k] = uint32_t(k);
+    }
+    pos = std::move(face_pos);
+    nrm = std::move(face_nrm);
   }
   for (size_t k = 0; k + 2 < idx.size(); k += 3) {
     Vec3 g = cross(pos[idx[k + 1]] - pos[idx[k]], pos[idx[k + 2]] - pos[idx[k]]);
