@@ -278,6 +278,8 @@ TEST_F(Lights, BadDeltaLightsAreRefused) {
   expect_refused(R"(<emitter type="point"><point name="position" x="0" y="0" z="1e30"/></emitter>)", "beyond 1e18");
   expect_refused(R"(<emitter type="point"><float name="radius" value="1"/></emitter>)", "unknown parameter 'radius'");
   expect_refused(R"(<emitter type="sunsky"/>)", "unknown top-level emitter 'sunsky'");
+  expect_refused(R"(<emitter type="spot"><rgb name="texture" value="0.5"/></emitter>)",
+                 "parameter 'texture' has the wrong type <rgb>");
 }
 
 // The spot of SpotLightMatchesItsFalloff straight down with a projected

@@ -64,6 +64,7 @@ void MitsubaParser::parse_emitter(pugi::xml_node n) {
     const double cutoff = p.get_float("cutoff_angle", 20.0);
     const double beam = p.get_float("beam_width", cutoff * 3.0 / 4.0);
     l.texture = texture_param(p, "texture");  // projected over the cutoff cone
+    if (l.texture < 0 && p.has("texture")) p.get("texture", {"texture", "ref"});  // names the wrong type
     Matrix4 to_world = p.get_transform("to_world");
     p.check_all_used();
     if (!(cutoff > 0.0 && cutoff <= 90.0)) error(n, "cutoff_angle must be in (0, 90] degrees");
