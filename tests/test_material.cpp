@@ -328,7 +328,10 @@ TEST_F(MaterialTextures, BadTexturesAreFileLineErrors) {
        "to_uv must be an affine map"},
       {"<bsdf type=\"diffuse\"><texture type=\"checkerboard\" name=\"reflectance\">" +
            bitmap("color0", "bright.pfm") + "</texture></bsdf>",
-       "a texture as the checkerboard's color0 is not supported"},
+       "'reflectance' texture has texels above 1"},  // the nested texture's range
+      {"<bsdf type=\"diffuse\"><texture type=\"checkerboard\" name=\"reflectance\"><texture type=\"checkerboard\" "
+       "name=\"color0\">" + bitmap("color1", "bright.pfm") + "</texture></texture></bsdf>",
+       "itself a mix"},
       {"<bsdf type=\"diffuse\"><texture type=\"checkerboard\" name=\"reflectance\"><float name=\"color1\" "
        "value=\"-1\"/></texture></bsdf>",
        "must be finite and not negative"},

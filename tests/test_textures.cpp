@@ -388,6 +388,43 @@ TEST_F(TextureUv, MeshWithoutCoordinatesTakesTheBarycentrics) {
   }
 }
 
+// Mitsuba 3's checkerboard whose colour is a texture: the checkerboard's
+// to_uv (here ×2) chooses the square, the nested bitmap is looked up at the
+// surface's own uv. color0 where exactly one of frac(u'), frac(v') exceeds
+// 1/2 (u' = 2u), the constant 0.25; color1 elsewhere: a 2×1 float bitmap,
+// nearest, dark left half and bright right half.
+TEST_F(TextureUv, CheckerboardColoursMayBeTextures) {
+  Image tex;
+  tex.width = 2;
+  tex.height = 1;
+  tex.rgb = {0.1f, 0.2f, 0.3f, 0.8f, 0.7f, 0.6f};
+  write_image((dir / "tex.pfm").string(), tex);
+  Scene s = load_mitsuba(
+      write("scene.xml",
+            "<scene version=\"3.0.0\"><sensor type=\"perspective\"/><shape type=\"rectangle\"><bsdf type=\"diffuse\">"
+            "<texture type=\"checkerboard\" name=\"reflectance\"><float name=\"color0\" value=\"0.25\"/>"
+            "<texture type=\"bitmap\" name=\"color1\"><string name=\"filename\" value=\"tex.pfm\"/>"
+            "<string name=\"filter_type\" value=\"nearest\"/></texture>"
+            "<transform name=\"to_uv\"><scale x=\"2\" y=\"2\"/></transform></texture></bsdf></shape></scene>"),
+      {});
+  ASSERT_EQ(s.texture_bindings.size(), 1u);
+  const uint32_t t = uint32_t(s.texture_bindings[0].texture);
+  const TextureView v = s.view().textures;
+  struct Probe {
+    Vec2 uv;
+    Color want;
+  } probes[] = {
+      {{0.3f, 0.1f}, {0.25f, 0.25f, 0.25f}},  // u' 0.6, v' 0.2: one above 1/2
+      {{0.1f, 0.1f}, {0.1f, 0.2f, 0.3f}},     // neither: the bitmap's left texel
+      {{0.8f, 0.3f}, {0.8f, 0.7f, 0.6f}},     // u' 1.6, v' 0.6: both: its right texel
+      {{0.8f, 0.1f}, {0.25f, 0.25f, 0.25f}},  // u' 1.6, v' 0.2
+  };
+  for (const Probe& p : probes) {
+    const Color c = v.eval(t, p.uv);
+    for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(c[k], p.want[k]) << p.uv.x << "," << p.uv.y << " channel " << k;
+  }
+}
+
 // Meshes with and without texture coordinates in one scene: a cube (none), a
 // textured rectangle, an untextured OBJ, then a textured OBJ. uvs must stay one
 // per position, each textured mesh's vertices carrying its own coordinates, and

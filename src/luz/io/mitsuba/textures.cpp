@@ -94,20 +94,30 @@ int32_t MitsubaParser::parse_texture(pugi::xml_node t, bool load) {
   Props p(this, t);
   const UvTransform to_uv = uv_transform(t, p);
   if (type == "checkerboard") {
-    CheckerboardTexture c;
-    for (const char* name : {"color0", "color1"}) {
-      auto it = p.by_name.find(name);
-      if (it != p.by_name.end() && (std::string(it->second.name()) == "texture" || std::string(it->second.name()) == "ref"))
-        error(it->second, std::string("a texture as the checkerboard's ") + name + " is not supported");
+    // Mitsuba 3's colours may be textures themselves, looked up at the
+    // surface's uv (not through the checkerboard's to_uv): then a mix of the
+    // two by a checkerboard of 0 and 1.
+    const char* names[2] = {"color0", "color1"};
+    const CheckerboardTexture defaults;
+    SceneBuilder::TextureOperand colour[2] = {{-1, defaults.color0}, {-1, defaults.color1}};
+    bool nested = false;
+    for (int k = 0; k < 2; ++k) {
+      auto it = p.by_name.find(names[k]);
+      const std::string tag = it == p.by_name.end() ? "" : it->second.name();
+      if (tag == "texture" || tag == "ref") {
+        colour[k].texture = texture_param(p, names[k], load);
+        nested = true;
+      } else {
+        colour[k].value = p.get_color(names[k], colour[k].value);
+        if (!is_finite(colour[k].value) || !(colour[k].value.x >= 0.f && colour[k].value.y >= 0.f && colour[k].value.z >= 0.f))
+          error(t, "checkerboard colours must be finite and not negative");
+      }
     }
-    c.color0 = p.get_color("color0", c.color0);
-    c.color1 = p.get_color("color1", c.color1);
     p.check_all_used();
-    for (Color v : {c.color0, c.color1})
-      if (!is_finite(v) || !(v.x >= 0.f && v.y >= 0.f && v.z >= 0.f))
-        error(t, "checkerboard colours must be finite and not negative");
     if (!load) return -1;
-    return builder_.add_checkerboard(loc(t), c.color0, c.color1, to_uv);
+    if (!nested) return builder_.add_checkerboard(loc(t), colour[0].value, colour[1].value, to_uv);
+    const int32_t which = builder_.add_checkerboard(loc(t), {0, 0, 0}, {1, 1, 1}, to_uv);
+    return builder_.add_mix_texture(loc(t), colour[0], colour[1], {which, {}});
   }
   std::string file = p.get_string("filename", "");
   if (file.empty()) error(t, "bitmap texture needs a 'filename'");
