@@ -405,9 +405,14 @@ Image read_pfm(const std::string& path) {
   return img;
 }
 
+// The extensions of the 8-bit formats read through stb.
+static bool is_image8_extension(const std::string& e) {
+  return e == ".jpg" || e == ".jpeg" || e == ".png" || e == ".tga" || e == ".bmp";
+}
+
 Image8 read_image8(const std::string& path) {
   std::string e = lower_extension(path);
-  if (e != ".jpg" && e != ".jpeg" && e != ".png" && e != ".tga" && e != ".bmp")
+  if (!is_image8_extension(e))
     throw InputError(path, 0, "unsupported bitmap format '" + e + "' (supported: .jpg, .png, .tga, .bmp)");
   const std::vector<uint8_t> data = read_binary_file(path);
   return decode_image8(path, data.data(), data.size());
@@ -451,7 +456,7 @@ Image read_image_linear(const std::string& path) {
   if (e == ".hdr") {
     img = read_hdr(path);
   } else {
-    if (e != ".jpg" && e != ".jpeg" && e != ".png" && e != ".tga" && e != ".bmp")
+    if (!is_image8_extension(e))
       throw InputError(path, 0,
                        "unsupported image format '" + e + "' (supported: .exr, .hdr, .pfm, .png, .jpg, .tga, .bmp)");
     const Image8 ldr = read_image8(path);
