@@ -745,7 +745,8 @@ TEST(CudaPassOnHost, ThinLensAndOrthographicMatchCpu) {
   }
 }
 
-// The box also lit by a point, a spot (projecting a checkerboard) and a
+// The box also lit by a point, a spot (projecting a checkerboard, pbrt-v4's
+// falloff) and a
 // directional light, an environment map and a small quad of textured
 // radiance (the light data array and the textures uploaded and read as on
 // the CPU).
@@ -761,11 +762,7 @@ Scene cornell_lights(int res, uint32_t spp, uint64_t seed) {
   spot.inv_x = {1, 0, 0};
   spot.inv_y = {0, 0, 1};
   spot.inv_z = {0, -1, 0};  // pointing down -y
-  spot.cutoff = 0.5f;
-  spot.beam = 0.3f;
-  spot.cos_cutoff = std::cos(0.5f);
-  spot.cos_beam = std::cos(0.3f);
-  spot.inv_transition = 1.f / 0.2f;
+  spot.set_cone(0.5, 0.3, SpotFalloff::SmoothstepCos);  // pbrt-v4's falloff
   DirectionalLight sun;
   sun.direction = normalize(Vec3{0.2f, -0.3f, -1.f});
   sun.irradiance = {0.5f, 0.5f, 0.5f};
@@ -780,7 +777,6 @@ Scene cornell_lights(int res, uint32_t spp, uint64_t seed) {
   Texture checker{CheckerboardTexture{{1.f, 0.3f, 0.1f}, {0.2f, 0.6f, 1.f}}};
   checker.to_uv = {4.f, 0.f, 0.f, 0.f, 4.f, 0.f};
   spot.texture = int32_t(s.add_texture(checker));
-  spot.tan_cutoff = std::tan(0.5f);
   for (const Light& l : {Light(point), Light(spot), Light(sun), Light(env)}) s.lights.push_back(l);
   const Vec3 q = c - Vec3{0.f, 0.f, 0.3f * ext.z};
   const float hw = 0.08f * ext.x;

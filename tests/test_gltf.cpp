@@ -310,6 +310,31 @@ TEST_F(GltfFiles, ModesIndicesTransformsCameraLights) {
   EXPECT_NEAR(s.lights[1].directional.direction.y, 1.f, 1e-6f);
 }
 
+// A spot light: inner -> beam, outer -> cutoff, with the extension's falloff
+// (the square of a linear ramp in cos θ; an inner angle of 0 allowed); a
+// `range` is ignored with a warning.
+TEST_F(GltfFiles, SpotLightFalloffAndRange) {
+  const std::string json =
+      views() + ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5}]}],"
+      "\"nodes\":[{\"mesh\":0},{\"extensions\":{\"KHR_lights_punctual\":{\"light\":0}},\"translation\":[0,0,3]}],"
+      "\"scenes\":[{\"nodes\":[0,1]}],\"extensionsUsed\":[\"KHR_lights_punctual\"],"
+      "\"extensions\":{\"KHR_lights_punctual\":{\"lights\":[{\"type\":\"spot\",\"intensity\":683,\"range\":5,"
+      "\"spot\":{\"innerConeAngle\":0,\"outerConeAngle\":0.5}}]}}";
+  Scene s = load_scene(gltf("spot.gltf", quad_bin(), json));
+  ASSERT_EQ(s.lights.size(), 1u);
+  ASSERT_EQ(s.lights[0].type, LightType::Spot);
+  const SpotLight& l = s.lights[0].spot;
+  EXPECT_EQ(l.falloff_kind, SpotFalloff::SquaredRampCos);
+  EXPECT_EQ(l.beam, 0.f);
+  EXPECT_NEAR(l.cutoff, 0.5f, 1e-7f);
+  EXPECT_NEAR(l.intensity.x, 1.f, 1e-6f);
+  // Halfway down the ramp in cos θ: a quarter (the extension's sample code).
+  const double c = 0.5 * (1.0 + std::cos(0.5)), th = std::acos(c);
+  EXPECT_NEAR(l.falloff({float(std::sin(th)), 0.f, float(c)}), 0.25f, 2e-4f);
+  ASSERT_EQ(s.warnings.size(), 1u);
+  EXPECT_NE(s.warnings[0].find("range is ignored"), std::string::npos) << s.warnings[0];
+}
+
 // Several cameras: the first in traversal order, or one by its camera's or
 // its node's name (luz render --camera); an unknown name lists the file's.
 TEST_F(GltfFiles, CameraByName) {

@@ -101,18 +101,15 @@ PointLight point() {
 }
 // to_world = rotation · diag(scale): the inverse's rows are the rotation's
 // columns over the scales. Falloff parameters as the loader sets them.
-SpotLight spot(double cutoff_deg, double beam_deg, const Matrix4& rotation, Vec3 scale = {1, 1, 1}) {
+SpotLight spot(double cutoff_deg, double beam_deg, const Matrix4& rotation, Vec3 scale = {1, 1, 1},
+               SpotFalloff falloff = SpotFalloff::LinearAngle) {
   SpotLight l;
   l.intensity = kRadiance;
   l.position = {0.5f, 1.5f, -1.f};
   l.inv_x = rotation.vector({1, 0, 0}) / scale.x;
   l.inv_y = rotation.vector({0, 1, 0}) / scale.y;
   l.inv_z = rotation.vector({0, 0, 1}) / scale.z;
-  l.cutoff = float(cutoff_deg * M_PI / 180.0);
-  l.beam = float(beam_deg * M_PI / 180.0);
-  l.cos_cutoff = float(std::cos(cutoff_deg * M_PI / 180.0));
-  l.cos_beam = float(std::cos(beam_deg * M_PI / 180.0));
-  l.inv_transition = beam_deg < cutoff_deg ? float(1.0 / ((cutoff_deg - beam_deg) * M_PI / 180.0)) : 0.f;
+  l.set_cone(cutoff_deg * M_PI / 180.0, beam_deg * M_PI / 180.0, falloff);
   return l;
 }
 DirectionalLight directional() {
@@ -385,6 +382,8 @@ std::vector<Case> cases(const EnvScene& env) {
   add("spot, 4° cone", spot(4, 2, kSpotRotation));
   add("spot, 70° cone", spot(70, 50, kSpotRotation));
   add("spot, no falloff", spot(30, 30, kSpotRotation));
+  add("spot, pbrt-v4's smoothstep", spot(70, 20, kSpotRotation, {1, 1, 1}, SpotFalloff::SmoothstepCos));
+  add("spot, glTF's squared ramp", spot(70, 0, kSpotRotation, {1, 1, 1}, SpotFalloff::SquaredRampCos));
   add("directional", directional());
   add("constant", constant());
   add("envmap", env.light(), env.view.lights.data);

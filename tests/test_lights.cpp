@@ -37,6 +37,7 @@
 // negative texels (a sphere's too): one file:line error.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <string>
@@ -237,6 +238,44 @@ TEST_F(Lights, SpotLightMatchesItsFalloff) {
                        return fall * d.z / r / (r * r);
                      },
                      rgb);
+}
+
+// The three falloffs between beam and cutoff, from the formats' own
+// definitions in double: Mitsuba's linear in θ (rendered above), pbrt-v4's
+// smoothstep in cos θ (SpotLight::I), glTF's squared linear ramp in cos θ
+// (KHR_lights_punctual's sample code); full inside the beam, 0 beyond the
+// cutoff. Rendering reads falloff() alike for all three.
+TEST(SpotFalloff, EachFormatsCurve) {
+  const double cutoff = 40 * M_PI / 180, beam = 15 * M_PI / 180;
+  const double cc = std::cos(cutoff), cb = std::cos(beam);
+  for (SpotFalloff kind : {SpotFalloff::LinearAngle, SpotFalloff::SmoothstepCos, SpotFalloff::SquaredRampCos}) {
+    SpotLight l;
+    l.set_cone(cutoff, beam, kind);
+    double worst = 0, inside = 0;
+    for (int i = 0; i <= 1000; ++i) {
+      const double th = (cutoff + 0.1) * i / 1000;
+      const double t = std::clamp((std::cos(th) - cc) / (cb - cc), 0.0, 1.0);
+      double want = kind == SpotFalloff::LinearAngle   ? std::clamp((cutoff - th) / (cutoff - beam), 0.0, 1.0)
+                    : kind == SpotFalloff::SmoothstepCos ? t * t * (3 - 2 * t)
+                                                         : t * t;
+      const float got = l.falloff({float(3 * std::sin(th)), 0.f, float(3 * std::cos(th))});
+      // Within float rounding of θ away from the two edges.
+      if (std::fabs(th - cutoff) > 1e-5 && std::fabs(th - beam) > 1e-5) worst = std::max(worst, std::fabs(got - want));
+      if (th > beam && th < cutoff) inside += want;
+    }
+    EXPECT_LT(worst, 2e-5) << int(kind);
+    EXPECT_GT(inside, 10.0) << "test bug: the ramp must be sampled";
+  }
+  // Different curves: at the middle of the angles, 0.5, 0.655 and 0.366.
+  const double mid = 0.5 * (cutoff + beam);
+  const Vec3 d{float(std::sin(mid)), 0.f, float(std::cos(mid))};
+  SpotLight a, b, c;
+  a.set_cone(cutoff, beam, SpotFalloff::LinearAngle);
+  b.set_cone(cutoff, beam, SpotFalloff::SmoothstepCos);
+  c.set_cone(cutoff, beam, SpotFalloff::SquaredRampCos);
+  EXPECT_NEAR(a.falloff(d), 0.5f, 1e-5f);
+  EXPECT_NEAR(b.falloff(d), 0.6555f, 1e-4f);
+  EXPECT_NEAR(c.falloff(d), 0.3663f, 1e-4f);
 }
 
 TEST_F(Lights, DirectionalLightGivesCosineIrradiance) {

@@ -664,7 +664,7 @@ TEST_F(PbrtScene, TexturedRoughnessIsRemappedAtEachLookup) {
 TEST_F(PbrtScene, PowerAndIlluminanceTargets) {
   Scene s = load_scene(write("p.pbrt", scene_text("", quad(-1, 1) +
       "LightSource \"point\" \"rgb I\" [ 0.5 1 2 ] \"float power\" 100 \"float scale\" 2\n"
-      "LightSource \"spot\" \"float power\" 60 \"float coneangle\" 40 \"float conedelta\" 10\n"
+      "LightSource \"spot\" \"float power\" 60 \"float coneangle\" 40 \"float conedeltaangle\" 10\n"
       "LightSource \"distant\" \"rgb L\" [ 1 0.5 0.25 ] \"float illuminance\" 8\n"
       "LightSource \"infinite\" \"float illuminance\" 3\n")));
   EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
@@ -679,6 +679,11 @@ TEST_F(PbrtScene, PowerAndIlluminanceTargets) {
   const double cs = std::cos(30 * M_PI / 180), ce = std::cos(40 * M_PI / 180);
   const double spot = 60 / (2 * M_PI * ((1 - cs) + (cs - ce) / 2));
   EXPECT_NEAR(by_type[size_t(LightType::Spot)]->spot.intensity.y, spot, 1e-5 * spot);
+  // pbrt-v4's falloff over the cone: a smoothstep in cos θ from the cone's edge to 30°.
+  const SpotLight& sl = by_type[size_t(LightType::Spot)]->spot;
+  EXPECT_EQ(sl.falloff_kind, SpotFalloff::SmoothstepCos);
+  EXPECT_NEAR(sl.beam, 30 * M_PI / 180, 1e-6);
+  EXPECT_NEAR(sl.cutoff, 40 * M_PI / 180, 1e-6);
   const Color e = by_type[size_t(LightType::Directional)]->directional.irradiance;
   EXPECT_NEAR(e.x, 8, 1e-5);
   EXPECT_NEAR(e.z, 2, 1e-5);

@@ -41,8 +41,9 @@
 //    683 lm/W (the luminous efficacy that defines the candela): point and
 //    spot intensity I [cd] -> color · I / 683 W/sr; directional illuminance
 //    E [lux] -> color · E / 683 W/m². Spot cones: inner -> Luz's beam width,
-//    outer -> cutoff (Luz's falloff is linear in angle between them, glTF's
-//    smooth in cosine); `range` is ignored (no cut-off).
+//    outer -> cutoff, the falloff between them the extension's square of a
+//    linear ramp in cos θ; `range` is ignored with a warning (the inverse
+//    square law to any distance, as a physical light).
 //  - No light at all (no emission, no punctual light): a uniform white
 //    environment of radiance 1 with a warning, as for OBJ and PLY files.
 //  - Camera: the first node with a camera in traversal order, or the one
@@ -897,6 +898,8 @@ class GltfLoader {
       if (!(color[k] >= 0.f && std::isfinite(color[k]))) fail(lw, "color needs 3 finite numbers >= 0");
     if (!(l.intensity >= 0.0 && l.intensity < 1e30)) fail(lw, "intensity must be finite and >= 0");
     const Color power = color * float(l.intensity / kLumensPerWatt);
+    if (l.range > 0.0 && l.type != "directional")
+      warn(lw + ": range is ignored (the light falls off by the inverse square law to any distance)");
     const Vec3 pos = world.point({0, 0, 0});
     const Vec3 axis = normalize(world.vector({0, 0, -1}));  // lights shine along -z
     if (!is_finite(pos) || max_abs(pos) > kMaxCoordinate || !is_finite(axis))
@@ -915,7 +918,6 @@ class GltfLoader {
       const double outer = l.spot.outerConeAngle, inner = l.spot.innerConeAngle;
       if (!(outer > 0.0 && outer <= M_PI / 2)) fail(lw, "outerConeAngle must lie in (0, π/2]");
       if (!(inner >= 0.0 && inner < outer)) fail(lw, "innerConeAngle must lie in [0, outerConeAngle)");
-      const double beam = std::max(inner, outer * 1e-3);  // Luz's beam width must be > 0
       SpotLight s;
       s.intensity = power;
       s.position = pos;
@@ -926,12 +928,7 @@ class GltfLoader {
       s.inv_x = normalize(x - axis * dot(x, axis));
       s.inv_y = cross(s.inv_z, s.inv_x);
       if (!is_finite(s.inv_x) || !is_finite(s.inv_y)) fail(where, "the spot light's transform is degenerate");
-      s.cutoff = float(outer);
-      s.beam = float(beam);
-      s.cos_cutoff = float(std::cos(outer));
-      s.cos_beam = float(std::cos(beam));
-      s.inv_transition = float(1.0 / (outer - beam));
-      s.tan_cutoff = float(std::tan(outer));
+      s.set_cone(outer, inner, SpotFalloff::SquaredRampCos);
       punctual_.push_back(s);
     } else {
       fail(lw, "light type must be point, spot or directional");

@@ -1,9 +1,11 @@
-// A spot light (Mitsuba's `spot`): a point light whose intensity I is full
-// within beam_width of its axis, falls off linearly in angle to 0 at
-// cutoff_angle, and is 0 beyond (Mitsuba's falloff_curve), optionally times
-// a projected texture (Mitsuba's `texture`: the image spans the cutoff cone's
-// tangent plane). Light space has the axis along +z; to_world places it. A
-// delta light.
+// A spot light: a point light whose intensity I is full within the beam
+// angle of its axis, falls off to 0 at the cutoff angle, and is 0 beyond,
+// optionally times a projected texture (Mitsuba's `texture`: the image spans
+// the cutoff cone's tangent plane). The falloff follows the format the light
+// came from: linear in the angle (Mitsuba's falloff_curve), a smoothstep in
+// cos θ (pbrt-v4's SpotLight::I), or the square of a linear ramp in cos θ
+// (glTF's KHR_lights_punctual). Light space has the axis along +z; to_world
+// places it. A delta light.
 #pragma once
 
 #include <algorithm>
@@ -13,23 +15,47 @@
 
 namespace luz {
 
+enum class SpotFalloff : uint8_t {
+  LinearAngle,     // (cutoff - θ) / (cutoff - beam): Mitsuba
+  SmoothstepCos,   // smoothstep(t), t = (cos θ - cos cutoff) / (cos beam - cos cutoff): pbrt-v4
+  SquaredRampCos,  // t²: glTF
+};
+
 struct SpotLight {
   static constexpr bool kDelta = true, kEnvironment = false;
   Color intensity;  // W/sr on the axis
   Vec3 position;
   // Rows of the inverse of to_world's linear part: world direction -> light space.
   Vec3 inv_x, inv_y, inv_z;
-  float cutoff = 0.f, beam = 0.f;  // angles in radians, 0 < beam <= cutoff <= π/2
-  float cos_cutoff = 1.f, cos_beam = 1.f, inv_transition = 0.f;
-  int32_t texture = -1;    // LightData::textures, or -1: none
-  float tan_cutoff = 0.f;  // the texture's extent: uv = 1/2 + (x, y) / (2 z tan(cutoff))
+  float cutoff = 0.f, beam = 0.f;  // angles in radians, 0 <= beam <= cutoff <= π/2, cutoff > 0
+  float cos_cutoff = 1.f, cos_beam = 1.f;
+  float inv_transition = 0.f;      // 1 / (cutoff - beam), 0 when equal
+  float inv_cos_transition = 0.f;  // 1 / (cos beam - cos cutoff), 0 when equal
+  int32_t texture = -1;            // LightData::textures, or -1: none
+  float tan_cutoff = 0.f;          // the texture's extent: uv = 1/2 + (x, y) / (2 z tan(cutoff))
+  SpotFalloff falloff_kind = SpotFalloff::LinearAngle;
+
+  // The cone's angles in radians (0 <= beam <= cutoff <= π/2, cutoff > 0)
+  // and its falloff's shape.
+  void set_cone(double cutoff_rad, double beam_rad, SpotFalloff kind) {
+    cutoff = float(cutoff_rad);
+    beam = float(beam_rad);
+    cos_cutoff = float(std::cos(cutoff_rad));
+    cos_beam = float(std::cos(beam_rad));
+    inv_transition = beam_rad < cutoff_rad ? float(1.0 / (cutoff_rad - beam_rad)) : 0.f;
+    inv_cos_transition = cos_beam > cos_cutoff ? float(1.0 / (std::cos(beam_rad) - std::cos(cutoff_rad))) : 0.f;
+    tan_cutoff = float(std::tan(cutoff_rad));
+    falloff_kind = kind;
+  }
 
   // The falloff factor in [0, 1] toward the light-space direction d.
   LUZ_INLINE float falloff(Vec3 d) const {
     const float cos_theta = normalize(d).z;
     if (!(cos_theta > cos_cutoff)) return 0.f;
     if (cos_theta >= cos_beam) return 1.f;
-    return (cutoff - acosf(cos_theta)) * inv_transition;
+    if (falloff_kind == SpotFalloff::LinearAngle) return (cutoff - acosf(cos_theta)) * inv_transition;
+    const float t = fminf(1.f, (cos_theta - cos_cutoff) * inv_cos_transition);
+    return falloff_kind == SpotFalloff::SmoothstepCos ? t * t * (3.f - 2.f * t) : t * t;
   }
 
   // World direction w in light space (not normalised).
@@ -84,12 +110,18 @@ struct SpotLight {
     return {1.f, uniform_cone_pdf(1.f - cos_cutoff) * det / (len * len * len)};
   }
   LUZ_INLINE Color eval(Vec3, Vec3, Vec2, const LightData&) const { return {}; }
-  // 2π I ∫ falloff(θ) sin θ dθ = 2π I (1 - (sin c - sin b) / (c - b)),
-  // 2π I (1 - cos c) when b = c (a projected texture not counted: power
-  // only weighs light selection).
+  // 2π I ∫ falloff(θ) sin θ dθ: 2π I (1 - (sin c - sin b) / (c - b)) linear
+  // in the angle, 2π I ((1 - cos b) + k (cos b - cos c)) for the ramps in
+  // cos θ (k = 1/2 for the smoothstep, 1/3 for the square), 2π I (1 - cos c)
+  // when b = c (a projected texture not counted: power only weighs light
+  // selection).
   double phi(float) const {
     const double b = beam, c = cutoff;
-    const double solid = c - b > 1e-7 ? 1.0 - (std::sin(c) - std::sin(b)) / (c - b) : 1.0 - std::cos(c);
+    double solid = 1.0 - std::cos(c);
+    if (c - b > 1e-7) {
+      if (falloff_kind == SpotFalloff::LinearAngle) solid = 1.0 - (std::sin(c) - std::sin(b)) / (c - b);
+      else solid = (1.0 - std::cos(b)) + (falloff_kind == SpotFalloff::SmoothstepCos ? 0.5 : 1.0 / 3.0) * (std::cos(b) - std::cos(c));
+    }
     return 2.0 * M_PI * solid * std::max(0.0, double(average(intensity)));
   }
   // Full intensity within the beam around the axis, spreading to the cutoff

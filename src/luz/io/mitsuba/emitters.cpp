@@ -71,12 +71,7 @@ void MitsubaParser::parse_emitter(pugi::xml_node n) {
     if (!(beam > 0.0 && beam <= cutoff)) error(n, "beam_width must be in (0, cutoff_angle] degrees");
     l.position = finite_place(to_world.point({0, 0, 0}), "position");
     if (!inverse_rows(to_world, l.inv_x, l.inv_y, l.inv_z)) error(n, "the spot light's to_world is degenerate");
-    l.cutoff = float(cutoff * M_PI / 180.0);
-    l.beam = float(beam * M_PI / 180.0);
-    l.cos_cutoff = float(std::cos(cutoff * M_PI / 180.0));
-    l.cos_beam = float(std::cos(beam * M_PI / 180.0));
-    l.inv_transition = beam < cutoff ? float(1.0 / ((cutoff - beam) * M_PI / 180.0)) : 0.f;
-    l.tan_cutoff = float(std::tan(cutoff * M_PI / 180.0));
+    l.set_cone(cutoff * M_PI / 180.0, beam * M_PI / 180.0, SpotFalloff::LinearAngle);
     builder_.add_light(loc(n), l);
   } else if (type == "directional") {
     DirectionalLight l;

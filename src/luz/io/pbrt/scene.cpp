@@ -559,15 +559,11 @@ class PbrtScene final : public ParserTarget {
       l.position = m.point(ps.get_point3("from", {0, 0, 0}));
       builder_.add_light(at, l);
     } else if (name == "spot") {
-      // pbrt-v4's falloff is a smoothstep in cos θ from cos(coneangle) to
-      // cos(coneangle - conedelta); Luz's (Mitsuba's) is linear in θ over the
-      // same angles: the cone and its full-intensity core agree, the ramp
-      // between them differs slightly.
       SpotLight l;
       const Vec3 from = ps.get_point3("from", {0, 0, 0}), to = ps.get_point3("to", {0, 0, 1});
-      const double cone = ps.get_float("coneangle", 30), delta = ps.get_float("conedelta", 5);
+      const double cone = ps.get_float("coneangle", 30), delta = ps.get_float("conedeltaangle", 5);
       if (!(cone > 0 && cone <= 90)) error(at, "coneangle must be in (0, 90] degrees");
-      if (!(delta >= 0 && delta <= cone)) error(at, "conedelta must be in [0, coneangle]");
+      if (!(delta >= 0 && delta <= cone)) error(at, "conedeltaangle must be in [0, coneangle]");
       // pbrt's smoothstep falloff integrated over the sphere.
       const double cos_end = std::cos(cone * M_PI / 180), cos_start = std::cos((cone - delta) * M_PI / 180);
       l.intensity = light_color(at, ps, "I") * scale_for("power", 2 * M_PI * ((1 - cos_start) + (cos_start - cos_end) / 2));
@@ -584,13 +580,8 @@ class PbrtScene final : public ParserTarget {
       const Matrix4 to_world = m * local;
       l.position = to_world.point({0, 0, 0});
       if (!inverse_rows(to_world, l.inv_x, l.inv_y, l.inv_z)) error(at, "the spotlight's transform is singular");
-      const double beam = std::max(cone - delta, 1e-3);
-      l.cutoff = float(cone * M_PI / 180);
-      l.beam = float(beam * M_PI / 180);
-      l.cos_cutoff = std::cos(l.cutoff);
-      l.cos_beam = std::cos(l.beam);
-      l.inv_transition = beam < cone ? float(1 / ((cone - beam) * M_PI / 180)) : 0.f;
-      l.tan_cutoff = std::tan(l.cutoff);
+      // pbrt-v4's falloff: a smoothstep in cos θ from cos(coneangle) to cos(coneangle - conedeltaangle).
+      l.set_cone(cone * M_PI / 180, (cone - delta) * M_PI / 180, SpotFalloff::SmoothstepCos);
       builder_.add_light(at, l);
     } else if (name == "distant") {
       DirectionalLight l;
