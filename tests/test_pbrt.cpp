@@ -344,11 +344,11 @@ class PbrtScene : public TempDirTest {};
 // write) mirrors it to the right.
 TEST_F(PbrtScene, ImageOrientationFollowsPbrt) {
   double l, r;
-  Scene s = load_scene(write("left.pbrt", scene_text("", quad(0.3f, 1.3f))));
+  Scene s = load_scene(write("left.pbrt", scene_text("PixelFilter \"box\"\n", quad(0.3f, 1.3f))));
   halves(luz_test::render_finite(s), l, r);
   EXPECT_GT(l, 0.0);
   EXPECT_EQ(r, 0.0);
-  s = load_scene(write("mirror.pbrt", "Scale -1 1 1\n" + scene_text("", quad(0.3f, 1.3f))));
+  s = load_scene(write("mirror.pbrt", "Scale -1 1 1\n" + scene_text("PixelFilter \"box\"\n", quad(0.3f, 1.3f))));
   halves(luz_test::render_finite(s), l, r);
   EXPECT_EQ(l, 0.0);
   EXPECT_GT(r, 0.0);
@@ -410,6 +410,9 @@ TEST_F(PbrtScene, CameraFilmSamplerIntegrator) {
   no_sampler.erase(no_sampler.find("Sampler"), no_sampler.find("WorldBegin") - no_sampler.find("Sampler"));
   Scene n = load_scene(write("e.pbrt", no_sampler));
   EXPECT_EQ(n.settings.sampler, SamplerType::Sobol);
+  // No Integrator and no PixelFilter: pbrt-v4's volpath of maxdepth 5 and its gaussian.
+  EXPECT_EQ(n.settings.integrator.max_depth, 6);
+  EXPECT_EQ(n.settings.filter, FilterKind::Gaussian);
   EXPECT_EQ(n.settings.spp, 16u);
   ASSERT_EQ(s.warnings.size(), 1u);
   EXPECT_NE(s.warnings[0].find("d.pbrt:5: warning: integrator 'bdpt'"), std::string::npos) << s.warnings[0];

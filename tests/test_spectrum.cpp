@@ -1,11 +1,16 @@
 // io/spectrum.h: a blackbody's colour against the CIE 1931 chromaticities
 // of the Planckian locus (Wyszecki and Stiles' tables: independent of the
 // matching functions' fit used here), its luminance, and pbrt-v4's
-// "blackbody" lights as the pbrt reader takes them.
+// "blackbody" lights as the pbrt reader takes them. Sampled spectra: the
+// equal-energy one at illuminant E's chromaticity (1/3, 1/3) by the CIE's
+// definition, a blackbody sampled every 5 nm at the blackbody's, and
+// pbrt-v4's lights of any spectrum but RGB at luminance 1.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "luz/io/load.h"
 #include "luz/io/spectrum.h"
@@ -51,6 +56,43 @@ TEST(Spectrum, BlackbodyRgbHasLuminanceOne) {
     EXPECT_THROW(blackbody_rgb(bad), std::invalid_argument) << bad;
 }
 
+TEST(Spectrum, SampledSpectraAtTheirChromaticity) {
+  // Equal energy over 300-800 nm: E (its tails below 360 nm and above 800 nm
+  // weigh under 1e-4 of Y); its sRGB is XYZ (1, 1, 1) through the matrix.
+  const Vec3 e = sampled_spectrum_xyz({300, 5, 800, 5});
+  EXPECT_EQ(e.y, 1.f);
+  EXPECT_NEAR(e.x / (e.x + e.y + e.z), 1.0 / 3, 0.003);
+  EXPECT_NEAR(e.y / (e.x + e.y + e.z), 1.0 / 3, 0.003);
+  const Color rgb = sampled_spectrum_rgb({300, 5, 800, 5});
+  EXPECT_NEAR(0.212671 * rgb.x + 0.715160 * rgb.y + 0.072169 * rgb.z, 1.0, 1e-4);
+  EXPECT_NEAR(rgb.x, 1.2048, 0.02);
+  EXPECT_NEAR(rgb.y, 0.9484, 0.02);
+  EXPECT_NEAR(rgb.z, 0.9087, 0.02);
+  // A lone pair is a constant: the same.
+  const Vec3 one = sampled_spectrum_xyz({550, 2});
+  EXPECT_NEAR(one.x, e.x, 2e-3);
+  EXPECT_NEAR(one.z, e.z, 2e-3);
+  // Planck's law sampled every 5 nm (piecewise linear between) against the
+  // blackbody summed every 1 nm: the interpolation's error only.
+  for (double k : {2856.0, 6500.0}) {
+    std::vector<double> pairs;
+    for (int nm = 355; nm <= 835; nm += 5) {
+      const double m = nm * 1e-9;
+      pairs.push_back(nm);
+      pairs.push_back(1e-30 / (std::pow(m, 5) * std::expm1(1.438776877e-2 / (m * k))));
+    }
+    const Vec3 s = sampled_spectrum_xyz(pairs), b = blackbody_xyz(k);
+    EXPECT_NEAR(s.x, b.x, 1e-3 * b.x) << k;
+    EXPECT_NEAR(s.z, b.z, 1e-3 * b.z) << k;
+  }
+  // Nothing visible, bad pairs.
+  EXPECT_THROW(sampled_spectrum_xyz({900, 1, 1000, 1}), std::invalid_argument);
+  EXPECT_THROW(sampled_spectrum_xyz({500, 1, 400, 1}), std::invalid_argument);
+  EXPECT_THROW(sampled_spectrum_xyz({500, -1, 600, 1}), std::invalid_argument);
+  EXPECT_THROW(sampled_spectrum_xyz({500, 1, 600}), std::invalid_argument);
+  EXPECT_THROW(sampled_spectrum_xyz({500, 1, double(NAN), 1}), std::invalid_argument);
+}
+
 class PbrtBlackbody : public TempDirTest {};
 
 TEST_F(PbrtBlackbody, LightsTakeItOthersRefuseIt) {
@@ -71,6 +113,32 @@ TEST_F(PbrtBlackbody, LightsTakeItOthersRefuseIt) {
                                 "two.pbrt:4", "blackbody takes one temperature in kelvin");
   luz_test::expect_load_refused(write("cold.pbrt", head + "LightSource \"point\" \"blackbody I\" [ 0 ]\n"),
                                 "cold.pbrt:4", "a blackbody temperature must be positive");
+}
+
+// pbrt-v4 divides every light's spectrum but RGB by its photometric
+// integral: a sampled spectrum emits luminance 1 (times `scale`) whatever
+// its magnitude, stdillum-D65 sRGB's white; materials keep refusing
+// spectra that are not constant.
+TEST_F(PbrtBlackbody, LightsOfSampledSpectraHaveLuminanceOne) {
+  const std::string head = "Camera \"perspective\"\nWorldBegin\nShape \"sphere\"\n";
+  Scene s = load_scene(write("s.pbrt", head + "LightSource \"point\" \"spectrum I\" [ 300 10 800 10 ] \"float scale\" 2\n"
+                                              "LightSource \"distant\" \"spectrum L\" \"stdillum-D65\"\n"
+                                              "AttributeBegin\nAreaLightSource \"diffuse\" \"spectrum L\" [ 400 0 700 3 ]\n"
+                                              "Shape \"sphere\" \"float radius\" 0.5\nAttributeEnd\n"
+                                              "LightSource \"point\" \"spectrum I\" [ 400 1 460 1 ]\n"));
+  ASSERT_EQ(s.lights.size(), 4u);
+  ASSERT_EQ(s.warnings.size(), 1u);  // the violet one lies outside sRGB
+  EXPECT_NE(s.warnings[0].find("s.pbrt:10: warning: spectrum 'I' lies outside sRGB"), std::string::npos) << s.warnings[0];
+  const Color e = sampled_spectrum_rgb({300, 10, 800, 10}) * 2.f;
+  for (int c = 0; c < 3; ++c) EXPECT_FLOAT_EQ(s.lights[0].point.intensity[c], e[c]);
+  for (int c = 0; c < 3; ++c) EXPECT_EQ(s.lights[1].directional.irradiance[c], 1.f);
+  const Color ramp = s.lights[2].sphere.radiance;
+  EXPECT_NEAR(0.212671 * ramp.x + 0.715160 * ramp.y + 0.072169 * ramp.z, 1.0, 1e-4);
+  EXPECT_GT(ramp.x, ramp.z);  // rising toward the red
+  luz_test::expect_load_refused(write("r.pbrt", head + "Material \"diffuse\" \"spectrum reflectance\" [ 400 0.2 700 0.8 ]\n"),
+                                "r.pbrt:4", "a sampled spectrum that is not constant is not supported");
+  luz_test::expect_load_refused(write("ir.pbrt", head + "LightSource \"point\" \"spectrum I\" [ 900 1 1000 1 ]\n"),
+                                "ir.pbrt:4", "the spectrum has no luminance");
 }
 
 }  // namespace

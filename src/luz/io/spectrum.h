@@ -2,6 +2,8 @@
 // sRGB colours when loading.
 #pragma once
 
+#include <vector>
+
 #include "luz/math/vec.h"
 
 namespace luz {
@@ -19,5 +21,14 @@ Vec3 blackbody_xyz(double kelvin);
 // about 1,900 K blue falls outside sRGB and comes out negative: the caller
 // clamps.
 Color blackbody_rgb(double kelvin);
+
+// A piecewise-linear spectrum given as (λ nm, value) pairs, λ increasing,
+// 0 outside them (pbrt-v4's PiecewiseLinearSpectrum), in CIE 1931 XYZ and
+// in linear sRGB, scaled to luminance 1 as pbrt-v4's lights emit any
+// spectrum but RGB; a lone pair is a constant. Throws
+// std::invalid_argument for bad pairs or no luminance. Out-of-gamut
+// spectra come out with negative sRGB components: the caller clamps.
+Vec3 sampled_spectrum_xyz(const std::vector<double>& pairs);
+Color sampled_spectrum_rgb(const std::vector<double>& pairs);
 
 }  // namespace luz

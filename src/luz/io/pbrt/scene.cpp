@@ -193,6 +193,10 @@ class PbrtScene final : public ParserTarget {
  public:
   explicit PbrtScene(const std::string& path) : path_(path), builder_(path) {
     search_dir_ = fs::path(path).parent_path();
+    // pbrt-v4's defaults where the file gives no Integrator or PixelFilter:
+    // volpath with maxdepth 5 (Luz's depth counts segments: 6), a gaussian.
+    builder_.settings().integrator.max_depth = 6;
+    builder_.settings().filter = FilterKind::Gaussian;
   }
 
   Scene finish() { return builder_.finish(); }
@@ -1274,8 +1278,24 @@ class PbrtScene final : public ParserTarget {
       if (is_float) ParamSet::error(*p, "is of type 'spectrum', expected 'float'");
       if (!p->strings.empty()) {
         if (p->strings.size() != 1) ParamSet::error(*p, "expected one spectrum name");
-        if (!named_metal(p->strings[0], out.value))
-          ParamSet::error(*p, "spectrum '" + p->strings[0] + "' is not supported (named metals: metal-{Au,Ag,Cu,Al,Cr}-{eta,k}; or rgb)");
+        if (light && p->strings[0] == "stdillum-D65") {
+          out.value = {1, 1, 1};  // luminance 1 (as every light below), sRGB's own white
+        } else if (!named_metal(p->strings[0], out.value)) {
+          ParamSet::error(*p, "spectrum '" + p->strings[0] + "' is not supported (named metals: metal-{Au,Ag,Cu,Al,Cr}-{eta,k}; " +
+                                  (light ? "on lights stdillum-D65; " : "") + "or rgb)");
+        }
+      } else if (light) {
+        // pbrt-v4 divides every light's spectrum but RGB by its photometric
+        // integral: any (λ, value) pairs emit luminance 1, in their colour.
+        try {
+          out.value = sampled_spectrum_rgb(p->numbers);
+        } catch (const std::invalid_argument& e) {
+          ParamSet::error(*p, e.what());
+        }
+        if (!(std::min({out.value.x, out.value.y, out.value.z}) >= 0.f)) {
+          builder_.warn(p->loc, "spectrum '" + name + "' lies outside sRGB: its negative components are clamped to 0");
+          out.value = vmax(out.value, Color{0, 0, 0});
+        }
       } else {
         // (λ, value) pairs: only a constant spectrum has an exact RGB here.
         const auto& v = p->numbers;
