@@ -366,6 +366,116 @@ TEST_F(GltfFiles, CameraByName) {
             std::string::npos);
 }
 
+// A camera node's scale is ignored (§3.10.2): a mirroring scale neither
+// mirrors the view nor, uneven, shears it; at another resolution the
+// vertical field of view (yfov) is kept.
+TEST_F(GltfFiles, CameraIgnoresScaleAndKeepsYfov) {
+  auto load = [&](const std::string& name, const std::string& scale) {
+    const std::string json = views() +
+        ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5}]}],"
+        "\"nodes\":[{\"mesh\":0},{\"camera\":0,\"translation\":[0,0,10]" + scale + "}],\"scenes\":[{\"nodes\":[0,1]}],"
+        "\"cameras\":[{\"type\":\"perspective\",\"perspective\":{\"yfov\":0.5,\"aspectRatio\":1.5,\"znear\":0.1}}]";
+    return load_scene(gltf(name, quad_bin(), json));
+  };
+  const Scene plain = load("plain.gltf", ""), mirrored = load("mirrored.gltf", ",\"scale\":[-1,3,0.5]");
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_NEAR(mirrored.camera.x_axis[k], plain.camera.x_axis[k], 1e-6f) << k;
+    EXPECT_NEAR(mirrored.camera.y_axis[k], plain.camera.y_axis[k], 1e-6f) << k;
+    EXPECT_NEAR(mirrored.camera.z_axis[k], plain.camera.z_axis[k], 1e-6f) << k;
+  }
+  EXPECT_EQ(plain.camera.x_axis.x, -1.f);  // the image's left
+  Scene wide = plain;
+  wide.set_resolution(300, 100);
+  EXPECT_NEAR(wide.camera.tan_half_y, std::tan(0.25f), 1e-6f);
+  EXPECT_NEAR(wide.camera.tan_half_x, 3 * std::tan(0.25f), 1e-6f);
+}
+
+// KHR_mesh_quantization: normalised short positions where the file uses
+// it; refused, naming the extension, where it does not. Extensions the
+// file uses and Luz does not, and COLOR_0, are left out with a warning.
+TEST_F(GltfFiles, QuantizedPositionsAndIgnoredExtensions) {
+  std::vector<int16_t> p = {0, 0, 0, 32767, 0, 0, 0, 32767, 0, 32767, 32767, 0};
+  std::vector<uint8_t> idx = {0, 1, 2, 3};
+  std::vector<float> color(16, 0.5f);
+  const std::string bin = bytes(p) + bytes(idx) + bytes(color);
+  auto json = [](const std::string& used) {
+    return "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":24},{\"buffer\":0,\"byteOffset\":24,\"byteLength\":4},"
+           "{\"buffer\":0,\"byteOffset\":28,\"byteLength\":64}],"
+           "\"accessors\":[{\"bufferView\":0,\"componentType\":5122,\"normalized\":true,\"count\":4,\"type\":\"VEC3\"},"
+           "{\"bufferView\":1,\"componentType\":5121,\"count\":4,\"type\":\"SCALAR\"},"
+           "{\"bufferView\":2,\"componentType\":5126,\"count\":4,\"type\":\"VEC4\"}],"
+           "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"COLOR_0\":2},\"indices\":1,\"mode\":5}]}],"
+           "\"nodes\":[{\"mesh\":0}],\"extensionsUsed\":[" + used + "]";
+  };
+  Scene s = load_scene(gltf("q.gltf", bin, json("\"KHR_mesh_quantization\",\"KHR_materials_sheen\"")));
+  ASSERT_EQ(s.positions.size(), 4u);
+  EXPECT_EQ(s.positions[3].x, 1.f);
+  EXPECT_EQ(s.positions[3].y, 1.f);
+  std::string all;
+  for (const std::string& w : s.warnings) all += w + "\n";
+  EXPECT_NE(all.find("extension KHR_materials_sheen is not supported: rendered without it"), std::string::npos) << all;
+  EXPECT_NE(all.find("COLOR_0 is ignored"), std::string::npos) << all;
+  luz_test::expect_load_refused(gltf("nq.gltf", bin, json("")), "nq.gltf",
+                                "POSITION must be VEC3 of floats (other types need KHR_mesh_quantization)");
+}
+
+// Skins (§3.7.3): each vertex by its joints' world transforms times their
+// inverse bind matrices, weighted; the skinned node's own transform is
+// ignored. Joint 0 at (0, 2, 0) (identity inverse bind), joint 1 at
+// (0, 0, 3) with an inverse bind of a translation by (-1, 0, 0).
+TEST_F(GltfFiles, SkinsPlaceVerticesByTheirJoints) {
+  std::vector<uint8_t> joints = {0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0};
+  std::vector<float> weights = {1, 0, 0, 0, 0, 1, 0, 0, 0.5f, 0.5f, 0, 0, 0.25f, 0.25f, 0, 0};  // the last sums to 1/2
+  std::vector<float> ibm = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, -1, 0, 0, 1};
+  const std::string bin = quad_bin() + bytes(joints) + bytes(weights) + bytes(ibm);
+  const std::string json =
+      views(",{\"buffer\":0,\"byteOffset\":60,\"byteLength\":16},{\"buffer\":0,\"byteOffset\":76,\"byteLength\":64},"
+            "{\"buffer\":0,\"byteOffset\":140,\"byteLength\":128}",
+            ",{\"bufferView\":3,\"componentType\":5121,\"count\":4,\"type\":\"VEC4\"},"
+            "{\"bufferView\":4,\"componentType\":5126,\"count\":4,\"type\":\"VEC4\"},"
+            "{\"bufferView\":5,\"componentType\":5126,\"count\":2,\"type\":\"MAT4\"}") +
+      ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"JOINTS_0\":3,\"WEIGHTS_0\":4},\"indices\":1,\"mode\":5}]}],"
+      "\"nodes\":[{\"mesh\":0,\"skin\":0,\"translation\":[10,0,0]},{\"translation\":[0,2,0]},{\"translation\":[0,0,3]}],"
+      "\"scenes\":[{\"nodes\":[0,1,2]}],\"skins\":[{\"joints\":[1,2],\"inverseBindMatrices\":5}]";
+  Scene s = load_scene(gltf("skin.gltf", bin, json));
+  ASSERT_EQ(s.positions.size(), 4u);
+  // v0 (0,0,0) by joint 0: (0,2,0); v1 (1,0,0) by joint 1: (0,0,3);
+  // v2 (0,1,0) halfway: ((0,3,0) + (-1,1,3)) / 2; v3 (1,1,0) the same halves: ((1,3,0) + (0,1,3)) / 2.
+  const Vec3 want[4] = {{0, 2, 0}, {0, 0, 3}, {-0.5f, 2, 1.5f}, {0.5f, 2, 1.5f}};
+  for (int v = 0; v < 4; ++v)
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.positions[size_t(v)][k], want[v][k], 1e-6f) << "vertex " << v << " axis " << k;
+  // A joint outside the scene, a vertex naming a joint the skin lacks.
+  std::string outside = json;
+  outside.replace(outside.find("\"nodes\":[0,1,2]"), 15, "\"nodes\":[0,1]");
+  luz_test::expect_load_refused(gltf("outside.gltf", bin, outside), "outside.gltf", "skins[0]: joint 2 is not a node of the scene");
+  std::vector<uint8_t> bad = joints;
+  bad[5] = 7;  // vertex 1's weighted joint
+  luz_test::expect_load_refused(gltf("badjoint.gltf", quad_bin() + bytes(bad) + bytes(weights) + bytes(ibm), json),
+                                "badjoint.gltf", "JOINTS_0 names joint 7 of 2");
+}
+
+// Morph targets (§3.7.2.2): positions plus the weighted displacements, at
+// the node's weights, else the mesh's; a mesh placed twice with different
+// weights is not instanced.
+TEST_F(GltfFiles, MorphTargetsAtTheirWeights) {
+  std::vector<float> delta = {0, 0, 0, 0, 4, 0, 0, 0, 0, 0, 4, 0};  // v1 and v3 up by 4
+  const std::string bin = quad_bin() + bytes(delta);
+  const std::string json =
+      views(",{\"buffer\":0,\"byteOffset\":60,\"byteLength\":48}", ",{\"bufferView\":3,\"componentType\":5126,\"count\":4,\"type\":\"VEC3\"}") +
+      ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5,\"targets\":[{\"POSITION\":3}]}],"
+      "\"weights\":[1]}],\"nodes\":[{\"mesh\":0},{\"mesh\":0,\"weights\":[0.5],\"translation\":[0,0,-5]}],"
+      "\"scenes\":[{\"nodes\":[0,1]}]";
+  Scene s = load_scene(gltf("morph.gltf", bin, json));
+  EXPECT_TRUE(s.instances.empty());
+  float top_front = 0, top_back = 0;  // the highest y at z = 0 and at z = -5
+  for (const Vec3& p : s.positions) (p.z == 0.f ? top_front : top_back) = std::max(p.z == 0.f ? top_front : top_back, p.y);
+  EXPECT_EQ(top_front, 5.f);
+  EXPECT_EQ(top_back, 3.f);
+  std::string wrong = json;
+  wrong.replace(wrong.find("\"weights\":[0.5]"), 15, "\"weights\":[0.5,1]");
+  luz_test::expect_load_refused(gltf("wrong.gltf", bin, wrong), "wrong.gltf", "nodes[1]: weights has 2 numbers for 1 morph targets");
+}
+
 // alphaMode MASK with a constant alpha: opacity 0 below the cutoff, 1 at or
 // above; BLEND: the alpha itself. doubleSided (two-sided emission too),
 // KHR_materials_ior, emissive strength.
@@ -475,6 +585,59 @@ TEST_F(GltfFiles, MaterialTextures) {
   EXPECT_EQ(s.lights[0].type, LightType::Constant);
   ASSERT_FALSE(s.warnings.empty());
   EXPECT_NE(s.warnings[0].find("without its emission"), std::string::npos) << s.warnings[0];
+}
+
+// Normal textures (§3.9.3, tangents by MikkTSpace where TANGENT is absent):
+// the map's x follows +u, its y the image's up (glTF's v runs down), on a
+// mirrored uv layout too; `scale` multiplies x and y. A constant map of the
+// tangent-space normal n on the quad of z = 0 facing +z, its image's up
+// along world +y: u along +x gives (n.x, n.y, n.z), u along -x (mirrored)
+// (-n.x, n.y, n.z).
+TEST_F(GltfFiles, NormalTexturesFollowTheImagesUp) {
+  const double nx = 0.3, ny = 0.4, nz = std::sqrt(1 - nx * nx - ny * ny);
+  Image img;
+  img.width = img.height = 2;
+  for (int k = 0; k < 4; ++k)
+    for (double c : {nx, ny, nz}) img.rgb.push_back(float((c + 1) / 2));
+  write_image((dir / "n.png").string(), img);
+  // The map as its bytes say (the PNG holds sRGB-encoded values; glTF reads normal textures raw).
+  const Image8 bytes8 = read_image8((dir / "n.png").string());
+  auto raw = [&](int c) { return 2.0 * ((bytes8.rgba[0] >> (8 * c)) & 255) / 255.0 - 1.0; };
+  const Vec3 n = normalize(Vec3{float(raw(0)), float(raw(1)), float(raw(2))});
+  EXPECT_GT(n.x, 0.1f);
+  EXPECT_GT(n.y, 0.1f);
+  auto frame = [&](const std::string& name, std::vector<float> uv, double scale) {
+    const std::string doc =
+        views(",{\"buffer\":0,\"byteOffset\":60,\"byteLength\":32}",
+              ",{\"bufferView\":3,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"}") +
+        ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":3},\"indices\":1,\"mode\":5,"
+        "\"material\":0}]}],\"nodes\":[{\"mesh\":0}],\"images\":[{\"uri\":\"n.png\"}],\"textures\":[{\"source\":0}],"
+        "\"materials\":[{\"normalTexture\":{\"index\":0,\"scale\":" + std::to_string(scale) + "}}]";
+    Scene s = load_scene(gltf(name, quad_bin() + bytes(uv), doc));
+    const SceneView v = s.view();
+    EXPECT_EQ(v.num_triangles, 2u);
+    Vec3 first{0, 0, 0};  // both triangles' normals agree
+    for (uint32_t prim = 0; prim < v.num_triangles; ++prim) {
+      Hit hit;
+      hit.prim = prim, hit.u = 1.f / 3, hit.v = 1.f / 3, hit.t = 4.f;
+      const Vec3 c = (s.positions[s.indices[3 * prim]] + s.positions[s.indices[3 * prim + 1]] + s.positions[s.indices[3 * prim + 2]]) / 3.f;
+      Ray ray{c + Vec3{0, 0, 4}, {0, 0, -1}};
+      Interaction it = v.interaction(ray, hit);
+      const Frame f = v.shading_frame(it, hit);
+      if (prim == 0) first = f.n;
+      EXPECT_NEAR(length(f.n - first), 0.f, 1e-5f) << name << ": triangle " << prim;
+    }
+    return first;
+  };
+  // Image up along +y: v = 1 - y. Vertices (0,0), (1,0), (0,1), (1,1).
+  const Vec3 plain = frame("plain.gltf", {0, 1, 1, 1, 0, 0, 1, 0}, 1.0);
+  const Vec3 mirrored = frame("mirrored.gltf", {1, 1, 0, 1, 1, 0, 0, 0}, 1.0);
+  const Vec3 want_plain = n, want_mirrored{-n.x, n.y, n.z};
+  EXPECT_NEAR(length(plain - want_plain), 0.f, 1e-5f) << plain.x << " " << plain.y << " " << plain.z;
+  EXPECT_NEAR(length(mirrored - want_mirrored), 0.f, 1e-5f) << mirrored.x << " " << mirrored.y << " " << mirrored.z;
+  const Vec3 half = frame("half.gltf", {0, 1, 1, 1, 0, 0, 1, 0}, 0.5);
+  const Vec3 want_half = normalize(Vec3{n.x / 2, n.y / 2, n.z});
+  EXPECT_NEAR(length(half - want_half), 0.f, 1e-5f) << half.x << " " << half.y << " " << half.z;
 }
 
 // Texture channels and scales (the glTF factors): one bitmap read as RGB,

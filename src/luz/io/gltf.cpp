@@ -10,23 +10,31 @@
 //    triangles as §3.7.2.1 lists them); POINTS and LINES* skipped with a
 //    warning. Indices of any type (or none). POSITION (float), NORMAL
 //    (float; absent: flat shading), TEXCOORD_n (float, or normalised
-//    unsigned byte or short): one set per primitive, the one its material's
+//    unsigned byte or short), and KHR_mesh_quantization's integer types
+//    where the file uses it: one uv set per primitive, the one its material's
 //    textures name (KHR_texture_transform's texCoord included); sparse
-//    accessors and morph targets are refused / ignored.
+//    accessors are refused, COLOR_0 ignored with a warning. Morph targets
+//    at the node's (else the mesh's) weights; skins by their joints'
+//    matrices (linear blend, the skinned node's own transform ignored, as
+//    §3.7.3 says): the pose the file holds, without animation.
 //  - Materials: the metallic-roughness model (bsdf/gltf_pbr.h). Factors
 //    multiply their textures (Texture::scale); roughness is read from G and
 //    metallic from B of metallicRoughnessTexture (Texture::channel). Normal
 //    textures perturb the shading frame (Material::normal_map: the tangent
-//    along dp/du, bitangent n × t, which is glTF's convention for a mesh
-//    without TANGENT; normalTexture.scale and TANGENT are ignored with a
-//    warning when not 1 / present). occlusionTexture is ignored (the path
+//    along dp/du, the bitangent along -dp/dv's side of n × t, the sign
+//    MikkTSpace gives a mesh without TANGENT, mirrored uv layouts too;
+//    x and y times normalTexture.scale, §3.9.3); TANGENT is ignored with a
+//    warning (the tangent follows dp/du). occlusionTexture is ignored (the path
 //    tracer computes occlusion). doubleSided -> Bsdf::two_sided.
 //    KHR_materials_ior sets the dielectric f0; KHR_materials_transmission
 //    (factor, texture's R) makes it gltf_pbr.h's thin transmitting sheet
 //    (two-sided whatever doubleSided says; KHR_materials_volume ignored).
 //  - Emission: emissiveFactor × emissiveTexture × KHR_materials_emissive_strength
 //    is the radiance of the primitive's triangles as area lights (front side;
-//    both with doubleSided, whose "double-sided lighting" covers emission).
+//    both with doubleSided, whose "double-sided lighting" covers emission):
+//    1 is radiance 1, as Blender's importer takes it (the specification
+//    leaves the scale to the renderer), while punctual lights are
+//    photometric at 683 lm/W (below), as Blender's importer too.
 //  - Alpha: OPAQUE ignores alpha; MASK makes the surface exist where
 //    alpha = baseColorFactor.a × texture.a >= alphaCutoff (Material::alpha_cutoff,
 //    the alpha test of material/opacity.h); BLEND uses alpha as a stochastic
@@ -135,12 +143,14 @@ class GltfLoader {
     const std::vector<int> roots = root_nodes();
     walk(roots);
     if (!camera_.empty() && !builder_.has_camera()) {
-      std::string names;
-      for (const tinygltf::Node& n : model_.nodes)
-        if (n.camera >= 0 && size_t(n.camera) < model_.cameras.size()) {
+      std::string names;  // the cameras of the scene drawn
+      for (size_t i = 0; i < model_.nodes.size(); ++i) {
+        const tinygltf::Node& n = model_.nodes[i];
+        if (in_scene_[i] && n.camera >= 0 && size_t(n.camera) < model_.cameras.size()) {
           const std::string& c = model_.cameras[size_t(n.camera)].name;
           names += (names.empty() ? "" : ", ") + ("'" + (c.empty() ? n.name : c) + "'");
         }
+      }
       fail("cameras", "no camera named '" + camera_ + "' (" + (names.empty() ? "the file has none" : "the file has " + names) + ")");
     }
     // Area lights come first in Scene::lights (add_mesh numbers them), then the others.
@@ -164,6 +174,9 @@ class GltfLoader {
   tinygltf::Model model_;
   SceneBuilder builder_;
   std::vector<Light> punctual_;  // KHR_lights_punctual, added after the meshes' area lights
+  bool quantized_ = false;       // KHR_mesh_quantization used
+  std::vector<Matrix4> world_;   // each node's world transform
+  std::vector<bool> in_scene_;   // the nodes of the scene drawn
   std::set<std::string> warned_;
   // Per glTF material: the Luz material, its emission, and its texture-coordinate set.
   struct MaterialInfo {
@@ -242,6 +255,12 @@ class GltfLoader {
     if (!ok) {
       std::string first = err.substr(0, err.find('\n'));
       if (first.empty()) first = "not a valid glTF file";
+      // tinygltf's messages may quote a whole data URI: one readable line.
+      const size_t data = first.find("data:");
+      if (data != std::string::npos && first.size() - data > 100)
+        first = first.substr(0, data) + "a data URI of " + std::to_string(first.size() - data) +
+                " characters (not base64, or not of its buffer's byteLength)";
+      if (first.size() > 300) first = first.substr(0, 240) + " ... (" + std::to_string(first.size()) + " characters)";
       fail("", first);
     }
   }
@@ -252,6 +271,13 @@ class GltfLoader {
         "KHR_mesh_quantization", "KHR_materials_transmission"};
     for (const std::string& e : model_.extensionsRequired)
       if (!supported.count(e)) fail("", "requires extension " + e + ", which Luz does not support");
+    // Optional ones are left out with a word (KHR_materials_volume: where a
+    // material uses it).
+    for (const std::string& e : model_.extensionsUsed) {
+      quantized_ |= e == "KHR_mesh_quantization";
+      if (!supported.count(e) && e != "KHR_materials_volume")
+        warn("extension " + e + " is not supported: rendered without it");
+    }
   }
 
   std::vector<int> root_nodes() {
@@ -311,6 +337,9 @@ class GltfLoader {
     uses_.assign(model_.meshes.size(), 0);
     for (const tinygltf::Node& n : model_.nodes)
       if (n.mesh >= 0 && size_t(n.mesh) < uses_.size()) ++uses_[size_t(n.mesh)];
+    // Every node's world transform first: a skin's joints may come after its mesh.
+    world_.assign(model_.nodes.size(), Matrix4{});
+    std::vector<int> order;
     std::vector<std::pair<int, Matrix4>> stack;
     for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.push_back({*it, Matrix4{}});
     while (!stack.empty()) {
@@ -319,14 +348,20 @@ class GltfLoader {
       if (i < 0 || size_t(i) >= model_.nodes.size()) fail("nodes", "no node " + std::to_string(i));
       if (seen[size_t(i)]) fail(at("nodes", size_t(i)), "the node is reached twice (a cycle or two parents)");
       seen[size_t(i)] = true;
+      order.push_back(i);
+      const tinygltf::Node& n = model_.nodes[size_t(i)];
+      world_[size_t(i)] = parent * local_transform(n, at("nodes", size_t(i)));
+      for (auto c = n.children.rbegin(); c != n.children.rend(); ++c) stack.push_back({*c, world_[size_t(i)]});
+    }
+    in_scene_ = std::move(seen);
+    for (int i : order) {
       const tinygltf::Node& n = model_.nodes[size_t(i)];
       const std::string where = at("nodes", size_t(i));
-      const Matrix4 world = parent * local_transform(n, where);
-      if (n.mesh >= 0) add_mesh(n.mesh, world);
+      const Matrix4& world = world_[size_t(i)];
+      if (n.mesh >= 0) add_mesh(n.mesh, world, n, where);
       if (n.camera >= 0 && !builder_.has_camera() && wanted(n)) set_camera(n.camera, world, where);
       auto l = n.extensions.find("KHR_lights_punctual");
       if (l != n.extensions.end() && l->second.Has("light")) add_light(l->second.Get("light"), world, where);
-      for (auto c = n.children.rbegin(); c != n.children.rend(); ++c) stack.push_back({*c, world});
     }
   }
 
@@ -388,21 +423,168 @@ class GltfLoader {
         std::memcpy(&u, p + 4 * c, 4);
         return u;
       }
+      // Signed, normalised: max(c / (2^(b-1) - 1), -1) (§3.11).
+      case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        const double v = int8_t(p[c]);
+        return d.normalized ? std::max(v / 127.0, -1.0) : v;
+      }
+      case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t u;
+        std::memcpy(&u, p + 2 * c, 2);
+        return d.normalized ? std::max(u / 32767.0, -1.0) : double(u);
+      }
       default: return 0.0;
     }
   }
 
-  Data attribute(const tinygltf::Primitive& p, const std::string& name, int components, bool allow_normalized,
-                 const std::string& where) {
+  // A vertex attribute of the core specification's types, and of
+  // KHR_mesh_quantization's where the file uses it: positions of any
+  // integer type, normalised or not; normals of normalised signed bytes or
+  // shorts; texture coordinates of any 8- or 16-bit type.
+  enum class Attr { Position, Normal, Texcoord };
+  Data attribute(const tinygltf::Primitive& p, const std::string& name, Attr kind, const std::string& where) {
     Data d = accessor(p.attributes.at(name), where + ": " + name);
-    const bool is_float = d.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT;
-    const bool is_unorm = allow_normalized && d.normalized &&
-                          (d.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
-                           d.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
-    if (d.components != components || !(is_float || is_unorm))
-      fail(where, name + " must be " + (components == 3 ? "VEC3" : "VEC2") + " of floats" +
-                      (allow_normalized ? " or normalised unsigned bytes or shorts" : ""));
+    const int t = d.component_type;
+    const bool small = t == TINYGLTF_COMPONENT_TYPE_BYTE || t == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                       t == TINYGLTF_COMPONENT_TYPE_SHORT || t == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+    const bool unsigned_norm = d.normalized && (t == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE || t == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
+    const bool signed_norm = d.normalized && (t == TINYGLTF_COMPONENT_TYPE_BYTE || t == TINYGLTF_COMPONENT_TYPE_SHORT);
+    const bool ok = t == TINYGLTF_COMPONENT_TYPE_FLOAT || (kind == Attr::Texcoord && unsigned_norm) ||
+                    (quantized_ && (kind == Attr::Normal ? signed_norm : small));
+    const int components = kind == Attr::Texcoord ? 2 : 3;
+    if (d.components != components || !ok) {
+      const char* core = kind == Attr::Texcoord ? "floats or normalised unsigned bytes or shorts" : "floats";
+      const char* more = kind == Attr::Normal ? "normalised bytes or shorts" : "bytes or shorts";
+      fail(where, name + " must be " + (components == 3 ? "VEC3" : "VEC2") + " of " + core +
+                      (quantized_ ? std::string(" or ") + more + " (KHR_mesh_quantization)"
+                                  : std::string(" (other types need KHR_mesh_quantization)")));
+    }
     return d;
+  }
+
+  static Vec3 vec3(const Data& d, size_t i) {
+    return {float(component(d, i, 0)), float(component(d, i, 1)), float(component(d, i, 2))};
+  }
+
+  // ---- morph targets and skins (§3.7.2.2, §3.7.3) ----
+  // What bends a node's mesh: its morph weights (the node's, else the
+  // mesh's; empty when all are 0) and its skin's joint matrices
+  // (world(joint) · inverseBindMatrix), which replace the node's own
+  // transform.
+  struct Deform {
+    std::vector<double> weights;
+    bool skin = false;
+    std::vector<Matrix4> joints;
+  };
+  Deform deformation(int mesh, const tinygltf::Node& node, const std::string& where) {
+    Deform d;
+    const tinygltf::Mesh& m = model_.meshes[size_t(mesh)];
+    size_t targets = 0;
+    for (const tinygltf::Primitive& p : m.primitives) targets = std::max(targets, p.targets.size());
+    for (const tinygltf::Primitive& p : m.primitives)
+      if (p.targets.size() != targets) fail(at("meshes", size_t(mesh)), "its primitives have different numbers of morph targets");
+    const std::vector<double>& w = !node.weights.empty() ? node.weights : m.weights;
+    if (!w.empty() && w.size() != targets)
+      fail(node.weights.empty() ? at("meshes", size_t(mesh)) : where,
+           "weights has " + std::to_string(w.size()) + " numbers for " + std::to_string(targets) + " morph targets");
+    for (double x : w)
+      if (!std::isfinite(x) || std::fabs(x) > 1e6) fail(where, "a morph weight is not finite");
+    bool any = false;
+    for (double x : w) any |= x != 0.0;
+    if (any) d.weights = w;
+    if (node.skin >= 0) {
+      if (size_t(node.skin) >= model_.skins.size()) fail(where, "no skin " + std::to_string(node.skin));
+      const tinygltf::Skin& sk = model_.skins[size_t(node.skin)];
+      const std::string sw = at("skins", size_t(node.skin));
+      if (sk.joints.empty()) fail(sw, "no joints");
+      std::vector<Matrix4> inverse_bind(sk.joints.size());
+      if (sk.inverseBindMatrices >= 0) {
+        const Data ib = accessor(sk.inverseBindMatrices, sw + ": inverseBindMatrices");
+        if (ib.components != 16 || ib.component_type != TINYGLTF_COMPONENT_TYPE_FLOAT)
+          fail(sw, "inverseBindMatrices must be MAT4 of floats");
+        if (ib.count < sk.joints.size()) fail(sw, "fewer inverseBindMatrices than joints");
+        for (size_t j = 0; j < sk.joints.size(); ++j)
+          for (int c = 0; c < 16; ++c) {
+            const double v = component(ib, j, c);
+            if (!std::isfinite(v)) fail(sw, "an inverse bind matrix is not finite");
+            inverse_bind[j].m[c % 4][c / 4] = v;  // column-major
+          }
+      }
+      for (size_t j = 0; j < sk.joints.size(); ++j) {
+        const int node_index = sk.joints[j];
+        if (node_index < 0 || size_t(node_index) >= model_.nodes.size() || !in_scene_[size_t(node_index)])
+          fail(sw, "joint " + std::to_string(node_index) + " is not a node of the scene");
+        d.joints.push_back(world_[size_t(node_index)] * inverse_bind[j]);
+      }
+      d.skin = true;
+    }
+    return d;
+  }
+
+  // Positions and normals plus the weighted morph targets' displacements.
+  void morph(const tinygltf::Primitive& p, const Deform& d, std::vector<Vec3>& pos, std::vector<Vec3>& nrm,
+             const std::string& where) {
+    for (size_t k = 0; k < d.weights.size(); ++k) {
+      const float w = float(d.weights[k]);
+      if (w == 0.f) continue;
+      const std::string tw = where + ".targets[" + std::to_string(k) + "]";
+      auto add = [&](const char* name, std::vector<Vec3>& to) {
+        auto it = p.targets[k].find(name);
+        if (it == p.targets[k].end() || to.empty()) return;
+        const Data t = accessor(it->second, tw + ": " + name);
+        const bool ok = t.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+                        (quantized_ && t.normalized && (t.component_type == TINYGLTF_COMPONENT_TYPE_BYTE ||
+                                                        t.component_type == TINYGLTF_COMPONENT_TYPE_SHORT));
+        if (t.components != 3 || !ok) fail(tw, std::string(name) + " must be VEC3 of floats");
+        if (t.count != to.size()) fail(tw, std::string(name) + " and the primitive's differ in count");
+        for (size_t i = 0; i < to.size(); ++i) to[i] += vec3(t, i) * w;
+      };
+      add("POSITION", pos);
+      add("NORMAL", nrm);
+    }
+  }
+
+  // Each vertex's matrix: its joints' matrices weighted (JOINTS_n,
+  // WEIGHTS_n), the weights scaled to sum to 1.
+  std::vector<Matrix4> skin_matrices(const tinygltf::Primitive& p, const Deform& d, size_t n, const std::string& where) {
+    std::vector<Matrix4> out(n);
+    std::vector<double> total(n, 0.0);
+    for (Matrix4& m : out) m.m[3][3] = 0.0, m.m[0][0] = m.m[1][1] = m.m[2][2] = 0.0;
+    bool any = false;
+    for (int set = 0; p.attributes.count("JOINTS_" + std::to_string(set)); ++set) {
+      const std::string jn = "JOINTS_" + std::to_string(set), wn = "WEIGHTS_" + std::to_string(set);
+      if (!p.attributes.count(wn)) fail(where, jn + " without " + wn);
+      const Data j = accessor(p.attributes.at(jn), where + ": " + jn), w = accessor(p.attributes.at(wn), where + ": " + wn);
+      if (j.components != 4 || (j.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
+                                j.component_type != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT))
+        fail(where, jn + " must be VEC4 of unsigned bytes or shorts");
+      if (w.components != 4 || !(w.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT ||
+                                 (w.normalized && (w.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                                                   w.component_type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT))))
+        fail(where, wn + " must be VEC4 of floats or normalised unsigned bytes or shorts");
+      if (j.count != n || w.count != n) fail(where, jn + " or " + wn + " and POSITION differ in count");
+      any = true;
+      for (size_t i = 0; i < n; ++i)
+        for (int c = 0; c < 4; ++c) {
+          const double wt = component(w, i, c);
+          if (!(wt >= 0.0) || !std::isfinite(wt)) fail(where, wn + " holds a negative or non-finite weight");
+          if (wt == 0.0) continue;
+          const double ji = component(j, i, c);
+          if (!(ji < double(d.joints.size()))) fail(where, jn + " names joint " + std::to_string(uint64_t(ji)) + " of " +
+                                                           std::to_string(d.joints.size()));
+          const Matrix4& jm = d.joints[size_t(ji)];
+          for (int r = 0; r < 4; ++r)
+            for (int k = 0; k < 4; ++k) out[i].m[r][k] += wt * jm.m[r][k];
+          total[i] += wt;
+        }
+    }
+    if (!any) fail(where, "a skinned mesh needs JOINTS_0 and WEIGHTS_0");
+    for (size_t i = 0; i < n; ++i) {
+      if (!(total[i] > 0.0)) fail(where, "vertex " + std::to_string(i) + " has no joint weight");
+      for (int r = 0; r < 4; ++r)
+        for (int k = 0; k < 4; ++k) out[i].m[r][k] /= total[i];
+    }
+    return out;
   }
 
   // ---- meshes ----
@@ -418,9 +600,10 @@ class GltfLoader {
   // built once and instanced (SceneBuilder), unless it emits (emitters are
   // not instanced) or the transform mirrors (glTF then reverses the winding;
   // an instance keeps it); any other mesh is added as it is placed.
-  void add_mesh(int mesh, const Matrix4& world) {
+  void add_mesh(int mesh, const Matrix4& world, const tinygltf::Node& node, const std::string& where) {
     if (size_t(mesh) >= model_.meshes.size()) fail("nodes", "no mesh " + std::to_string(mesh));
-    if (uses_[size_t(mesh)] > 1 && world.det3() > 0.0) {
+    const Deform deform = deformation(mesh, node, where);
+    if (uses_[size_t(mesh)] > 1 && world.det3() > 0.0 && !deform.skin && deform.weights.empty()) {
       auto it = objects_.find(mesh);
       if (it == objects_.end()) {
         std::vector<Part> parts = primitives(mesh, Matrix4{});
@@ -438,7 +621,7 @@ class GltfLoader {
         return;
       }
     }
-    for (Part& p : primitives(mesh, world)) {
+    for (Part& p : primitives(mesh, world, &deform)) {
       const MaterialInfo& mat = *p.material;
       if (mat.emission_texture >= 0) {
         add_textured_emitter(p.at, std::move(p.mesh), mat);
@@ -449,10 +632,10 @@ class GltfLoader {
     }
   }
 
-  std::vector<Part> primitives(int mesh, const Matrix4& world) {
+  std::vector<Part> primitives(int mesh, const Matrix4& world, const Deform* deform = nullptr) {
     std::vector<Part> parts;
     const tinygltf::Mesh& m = model_.meshes[size_t(mesh)];
-    const bool flip = world.det3() < 0.0;
+    bool flip = world.det3() < 0.0;
     for (size_t pi = 0; pi < m.primitives.size(); ++pi) {
       const tinygltf::Primitive& p = m.primitives[pi];
       const std::string where = at("meshes", size_t(mesh)) + "." + at("primitives", pi);
@@ -465,30 +648,43 @@ class GltfLoader {
       if (mode != TINYGLTF_MODE_TRIANGLES && mode != TINYGLTF_MODE_TRIANGLE_STRIP && mode != TINYGLTF_MODE_TRIANGLE_FAN)
         fail(where, "unknown mode " + std::to_string(mode));
       if (!p.attributes.count("POSITION")) fail(where, "no POSITION");
-      const Data pos = attribute(p, "POSITION", 3, false, where);
+      const Data pos = attribute(p, "POSITION", Attr::Position, where);
       const size_t n = pos.count;
       if (n > size_t(UINT32_MAX / 2)) fail(where, "too many vertices");
       // Once per placement where the mesh is not instanced (add_mesh): many nodes add up.
       require_memory(uint64_t(n) * (2 * sizeof(Vec3) + sizeof(Vec2) + 3 * sizeof(uint32_t)), path_,
                      where + ": its " + std::to_string(n) + " vertices");
       TriangleMesh mesh;  // positions, normals in world space (SceneBuilder checks them)
-      mesh.positions.resize(n);
-      for (size_t i = 0; i < n; ++i)
-        mesh.positions[i] = world.point({float(component(pos, i, 0)), float(component(pos, i, 1)), float(component(pos, i, 2))});
+      std::vector<Vec3> local(n), local_n;
+      for (size_t i = 0; i < n; ++i) local[i] = vec3(pos, i);
       if (p.attributes.count("NORMAL")) {
-        const Data nd = attribute(p, "NORMAL", 3, false, where);
+        const Data nd = attribute(p, "NORMAL", Attr::Normal, where);
         if (nd.count != n) fail(where, "NORMAL and POSITION differ in count");
-        mesh.normals.resize(n);
-        for (size_t i = 0; i < n; ++i)
-          mesh.normals[i] = world.normal({float(component(nd, i, 0)), float(component(nd, i, 1)), float(component(nd, i, 2))});
+        local_n.resize(n);
+        for (size_t i = 0; i < n; ++i) local_n[i] = vec3(nd, i);
+      }
+      if (deform) morph(p, *deform, local, local_n, where);
+      if (deform && deform->skin) {
+        const std::vector<Matrix4> mv = skin_matrices(p, *deform, n, where);
+        flip = n > 0 && mv[0].det3() < 0.0;
+        mesh.positions.resize(n);
+        for (size_t i = 0; i < n; ++i) mesh.positions[i] = mv[i].point(local[i]);
+        mesh.normals.resize(local_n.size());
+        for (size_t i = 0; i < local_n.size(); ++i) mesh.normals[i] = mv[i].normal(local_n[i]);
+      } else {
+        mesh.positions.resize(n);
+        for (size_t i = 0; i < n; ++i) mesh.positions[i] = world.point(local[i]);
+        mesh.normals.resize(local_n.size());
+        for (size_t i = 0; i < local_n.size(); ++i) mesh.normals[i] = world.normal(local_n[i]);
       }
       if (p.attributes.count("TANGENT")) warn(where + ": TANGENT is ignored (tangents follow dp/du)");
+      if (p.attributes.count("COLOR_0")) warn(where + ": COLOR_0 is ignored (vertex colours are not supported)");
       const MaterialInfo& mat = material(p.material);
       std::vector<Vec2>& uvs = mesh.uvs;
       if (mat.uv_set >= 0) {
         const std::string name = "TEXCOORD_" + std::to_string(mat.uv_set);
         if (!p.attributes.count(name)) fail(where, "its material's textures need " + name);
-        const Data t = attribute(p, name, 2, true, where);
+        const Data t = attribute(p, name, Attr::Texcoord, where);
         if (t.count != n) fail(where, name + " and POSITION differ in count");
         uvs.resize(n);
         for (size_t i = 0; i < n; ++i) uvs[i] = {float(component(t, i, 0)), float(component(t, i, 1))};
@@ -686,6 +882,8 @@ class GltfLoader {
     if (it != image_texture_.end()) return it->second;
     const tinygltf::Image& im = model_.images[size_t(index)];
     const std::string where = at("images", size_t(index));
+    if (im.image.empty() && !im.uri.empty() && im.uri.rfind("data:", 0) != 0)
+      fail(where, "cannot read image file '" + im.uri + "' (missing, unreadable or not an image)");
     if (im.width <= 0 || im.height <= 0 || im.component != 4 || (im.bits != 8 && im.bits != 16))
       fail(where, "not decoded to 8- or 16-bit RGBA (an unsupported image format?)");
     const size_t texels = size_t(im.width) * size_t(im.height), bytes = size_t(im.bits / 8);
@@ -805,8 +1003,8 @@ class GltfLoader {
     } else if (m.alphaMode != "OPAQUE") {
       fail(where, "alphaMode must be OPAQUE, MASK or BLEND");
     }
-    if (m.normalTexture.index >= 0 && m.normalTexture.scale != 1.0)
-      warn(where + ": normalTexture.scale is ignored (read as 1)");
+    if (!std::isfinite(m.normalTexture.scale) || std::fabs(m.normalTexture.scale) > 1e6)
+      fail(where, "normalTexture.scale must be a finite number");
     int32_t normal_map = -1;
     if (m.normalTexture.index >= 0)
       normal_map = texture(m.normalTexture.index, m.normalTexture.texCoord, m.normalTexture.extensions,
@@ -835,6 +1033,8 @@ class GltfLoader {
     d.opacity_texture = opacity_texture;
     d.alpha_cutoff = cutoff;
     d.normal_map = normal_map;
+    d.normal_scale = float(m.normalTexture.scale);
+    d.normal_y_by_uv = true;
     if (info.emissive && d.masked()) {
       warn(where + ": an emissive material with alphaMode MASK or BLEND is rendered without its emission");
       info.emissive = false, info.emission_texture = -1;
@@ -858,11 +1058,14 @@ class GltfLoader {
     Camera cam;
     cam.height = 512;
     cam.origin = world.point({0, 0, 0});
-    // glTF's camera looks along -z with +y up and +x right; Luz's x_axis
-    // points to the image's left (camera/frame.h).
-    cam.x_axis = normalize(world.vector({-1, 0, 0}));
-    cam.y_axis = normalize(world.vector({0, 1, 0}));
+    // glTF's camera looks along -z with +y up and +x right, its node's
+    // scale ignored (§3.10.2: a mirroring or uneven scale neither mirrors
+    // nor shears the view): the frame of the node's -z and +y, made
+    // orthonormal; Luz's x_axis points to the image's left (camera/frame.h).
     cam.z_axis = normalize(world.vector({0, 0, -1}));
+    const Vec3 up = world.vector({0, 1, 0});
+    cam.y_axis = normalize(up - cam.z_axis * dot(up, cam.z_axis));
+    cam.x_axis = cross(cam.y_axis, cam.z_axis);
     if (!is_finite(cam.x_axis) || !is_finite(cam.y_axis) || !is_finite(cam.z_axis) || !is_finite(cam.origin) ||
         max_abs(cam.origin) > kMaxCoordinate)
       fail(where, "the camera's transform is degenerate or lies beyond 1e18");
@@ -885,7 +1088,7 @@ class GltfLoader {
     } else {
       fail(cw, "camera type must be perspective or orthographic");
     }
-    builder_.set_camera({path_ + ": " + where, 0}, cam);
+    builder_.set_camera({path_ + ": " + where, 0}, cam, FovAxis::Y);  // yfov (ymag) kept at another resolution
   }
 
   void add_light(const tinygltf::Value& ref, const Matrix4& world, const std::string& where) {

@@ -53,6 +53,11 @@ struct Material {
   // shading frame by them, and the BSDF is evaluated in the perturbed frame.
   int32_t normal_map = -1, bump_map = -1;
   float bump_scale = 1.f;  // bumpmap's `scale`: multiplies the height's gradient
+  // glTF's normal textures: `scale` multiplies the map's x and y, and the
+  // map's y points along -dp/dv (glTF's v runs down the image), so that it
+  // flips where the uv layout is mirrored (MikkTSpace's bitangent sign).
+  float normal_scale = 1.f;
+  bool normal_y_by_uv = false;
 };
 
 struct MaterialsView {

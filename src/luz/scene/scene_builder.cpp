@@ -259,6 +259,7 @@ uint32_t SceneBuilder::add_material(const SourceLoc& at, const MaterialDesc& d) 
   check(d.bump_map, "the bump map");
   if (!(d.opacity >= 0.f && d.opacity <= 1.f)) error(at, "opacity must lie in [0, 1]");
   if (!std::isfinite(d.bump_scale)) error(at, "the bump scale is not finite");
+  if (!std::isfinite(d.normal_scale)) error(at, "the normal map's scale is not finite");
   if (!(d.alpha_cutoff <= 1.f)) error(at, "the alpha cutoff must be at most 1 (negative: none)");
   if (scene_.materials.size() >= size_t(UINT32_MAX)) error(at, "more than 2^32 - 1 materials");
   const uint32_t m = scene_.add_material(d.bsdf, d.bindings, d.opacity, d.opacity_texture);
@@ -266,6 +267,8 @@ uint32_t SceneBuilder::add_material(const SourceLoc& at, const MaterialDesc& d) 
   mat.normal_map = d.normal_map;
   mat.bump_map = d.bump_map;
   mat.bump_scale = d.bump_scale;
+  mat.normal_scale = d.normal_scale;
+  mat.normal_y_by_uv = d.normal_y_by_uv;
   mat.alpha_cutoff = d.alpha_cutoff;
   return m;
 }
@@ -281,6 +284,8 @@ MaterialDesc SceneBuilder::material(uint32_t index) const {
   d.normal_map = m.normal_map;
   d.bump_map = m.bump_map;
   d.bump_scale = m.bump_scale;
+  d.normal_scale = m.normal_scale;
+  d.normal_y_by_uv = m.normal_y_by_uv;
   d.alpha_cutoff = m.alpha_cutoff;
   return d;
 }

@@ -49,6 +49,8 @@ struct MaterialDesc {
   int32_t opacity_texture = -1;
   int32_t normal_map = -1, bump_map = -1;
   float bump_scale = 1.f;
+  float normal_scale = 1.f;     // Material::normal_scale, normal_y_by_uv (glTF's normal textures)
+  bool normal_y_by_uv = false;
   float alpha_cutoff = -1.f;  // Material::alpha_cutoff (glTF's alphaMode MASK)
   bool masked() const { return opacity_texture >= 0 || opacity < 1.f; }
   bool has_map() const { return normal_map >= 0 || bump_map >= 0; }

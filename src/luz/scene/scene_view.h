@@ -161,7 +161,8 @@ struct SceneView {
   // bumpmap.cpp) at a hit of point p, from the surface's dp/du and dp/dv (a
   // triangle's from its vertices' uvs, a sphere's from sphere_uv's angles):
   //   normalmap: n = normalize(2 rgb - 1) in the tangent frame (s along
-  //     dp/du made orthogonal to ns, t = ns × s, ns), Mitsuba's shading frame;
+  //     dp/du made orthogonal to ns, t = ns × s, ns), Mitsuba's shading frame
+  //     (glTF's: x and y scaled, y along -dp/dv: Material::normal_y_by_uv);
   //   bumpmap: the height h's uv gradient g (scaled) displaces the surface
   //     along ns: dp'/du = dp/du + ns (g.u - ns·dp/du), likewise v, and
   //     n = normalize(dp'/du × dp'/dv) (dn/du neglected, as Mitsuba).
@@ -192,7 +193,9 @@ struct SceneView {
     Vec3 n;
     if (m.normal_map >= 0) {
       const Color c = textures.eval(uint32_t(m.normal_map), uv);
-      n = Frame::from_normal_tangent(ns, dpdu).to_world({2.f * c.x - 1.f, 2.f * c.y - 1.f, 2.f * c.z - 1.f});
+      const float x = (2.f * c.x - 1.f) * m.normal_scale, y = (2.f * c.y - 1.f) * m.normal_scale;
+      const bool flip = m.normal_y_by_uv && dot(cross(ns, dpdu), dpdv) > 0.f;  // glTF: y along -dp/dv
+      n = Frame::from_normal_tangent(ns, dpdu).to_world({x, flip ? -y : y, 2.f * c.z - 1.f});
     } else {
       const Vec2 g = textures.eval_1_grad(uint32_t(m.bump_map), uv);
       const Vec3 du = dpdu + ns * (m.bump_scale * g.x - dot(ns, dpdu));
