@@ -193,7 +193,8 @@ TEST(LightEmission, AreaDirectionsChi2) {
 TEST(LightEmission, PointAndSpotDirectionsChi2) {
   check_directions("point", point(), nullptr, grid({0.2, 0.3, 1}), 5, direction, uniform);
   for (const auto& [what, l, seed] : {std::tuple{"spot, 4° cone", spot(4, 2, kSpotRotation), 6},
-                                      std::tuple{"spot, 70° cone", spot(70, 50, kSpotRotation), 7}}) {
+                                      std::tuple{"spot, 70° cone", spot(70, 50, kSpotRotation), 7},
+                                      std::tuple{"spot, 120° cone", spot(120, 100, kSpotRotation), 21}}) {
     // Bins up to the rim the light defines, so that none is cut by it.
     chi2::SphereGrid g = grid(spot_axis(), std::acos(double(l.cos_cutoff)));
     g.edge_tol = 1e-6;
@@ -384,6 +385,7 @@ std::vector<Case> cases(const EnvScene& env) {
   add("spot, no falloff", spot(30, 30, kSpotRotation));
   add("spot, pbrt-v4's smoothstep", spot(70, 20, kSpotRotation, {1, 1, 1}, SpotFalloff::SmoothstepCos));
   add("spot, glTF's squared ramp", spot(70, 0, kSpotRotation, {1, 1, 1}, SpotFalloff::SquaredRampCos));
+  add("spot, 120° cone", spot(120, 100, kSpotRotation, {1, 1, 1}, SpotFalloff::SmoothstepCos));
   add("directional", directional());
   add("constant", constant());
   add("envmap", env.light(), env.view.lights.data);

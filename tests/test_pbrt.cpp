@@ -453,9 +453,9 @@ TEST_F(PbrtScene, UnusedParametersWarnAndUnsupportedThingsAreNamed) {
   luz_test::expect_load_refused(write("crop.pbrt", "Film \"rgb\" \"float cropwindow\" [ 0 .5 .5 .5 ]\nWorldBegin\n" + quad(-1, 1)),
                                 "crop.pbrt:1", "cropwindow needs 4 numbers x0 x1 y0 y1 with 0 ≤ x0 < x1 ≤ 1");
   luz_test::expect_load_refused(
-      write("bounds.pbrt", "Film \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 16 \"integer pixelbounds\" [ 0 40 0 8 ]\n"
+      write("bounds.pbrt", "Film \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 16 \"integer pixelbounds\" [ 40 50 0 8 ]\n"
                            "WorldBegin\n" + quad(-1, 1)),
-      "bounds.pbrt:1", "the crop window [0, 40) × [0, 8) is empty or leaves the 32×16 film");
+      "bounds.pbrt:1", "the crop window [32, 32) × [0, 8) is empty or leaves the 32×16 film");
 }
 
 TEST_F(PbrtScene, MaterialsMapOntoLuzModels) {
@@ -510,6 +510,11 @@ TEST_F(PbrtScene, CropWindowAndPixelBounds) {
       load_scene(write("both.pbrt", film("\"float cropwindow\" [ 0.25 0.75 0.1 0.5 ] \"integer pixelbounds\" [ 0 4 0 4 ]")));
   EXPECT_EQ(both.camera.width, 15);
   EXPECT_TRUE(luz_test::has_warning(both, "both cropwindow and pixelbounds given: the cropwindow is used"));
+  // Beyond the film: clamped to it, with a warning (pbrt-v4's Film).
+  const Scene over = load_scene(write("over.pbrt", film("\"integer pixelbounds\" [ -4 23 2 99 ]")));
+  EXPECT_EQ(over.camera.width, 23);
+  EXPECT_EQ(over.camera.height, 18);
+  EXPECT_TRUE(luz_test::has_warning(over, "pixelbounds extends beyond the 30×20 film: clamped to it"));
 }
 
 // An imagemap's `scale` and a `scale` texture over an image: the image's
@@ -828,6 +833,20 @@ TEST_F(PbrtScene, ImageInfiniteLightIlluminanceAsPbrt) {
   luz_test::expect_load_refused(
       write("bad2.pbrt", scene_text("", "LightSource \"infinite\" \"string filename\" \"black.pfm\" \"float illuminance\" 5\n")),
       "bad2.pbrt:6", "it is black over its upper hemisphere");
+}
+
+// pbrt-v4's spotlights may open wider than a hemisphere: coneangle up to 180.
+TEST_F(PbrtScene, WideSpotlights) {
+  Scene s = load_scene(write("w.pbrt", scene_text("", quad(-1, 1) +
+      "LightSource \"spot\" \"float coneangle\" 120 \"float conedeltaangle\" 20 \"float power\" 10\n")));
+  ASSERT_EQ(s.lights.size(), 2u);
+  const SpotLight& l = s.lights[1].spot;
+  EXPECT_NEAR(l.cutoff, 120 * M_PI / 180, 1e-6);
+  EXPECT_NEAR(l.beam, 100 * M_PI / 180, 1e-6);
+  const double cs = std::cos(100 * M_PI / 180), ce = std::cos(120 * M_PI / 180);
+  EXPECT_NEAR(l.intensity.x, 10 / (2 * M_PI * ((1 - cs) + (cs - ce) / 2)), 1e-5);
+  luz_test::expect_load_refused(write("w2.pbrt", scene_text("", quad(-1, 1) + "LightSource \"spot\" \"float coneangle\" 181\n")),
+                                "w2.pbrt:10", "coneangle must be in (0, 180] degrees");
 }
 
 // Shapes other than meshes, delta lights, Attribute defaults, instances.

@@ -27,7 +27,7 @@ struct SpotLight {
   Vec3 position;
   // Rows of the inverse of to_world's linear part: world direction -> light space.
   Vec3 inv_x, inv_y, inv_z;
-  float cutoff = 0.f, beam = 0.f;  // angles in radians, 0 <= beam <= cutoff <= π/2, cutoff > 0
+  float cutoff = 0.f, beam = 0.f;  // angles in radians, 0 <= beam <= cutoff <= π (π/2 with a texture), cutoff > 0
   float cos_cutoff = 1.f, cos_beam = 1.f;
   float inv_transition = 0.f;      // 1 / (cutoff - beam), 0 when equal
   float inv_cos_transition = 0.f;  // 1 / (cos beam - cos cutoff), 0 when equal
@@ -35,8 +35,8 @@ struct SpotLight {
   float tan_cutoff = 0.f;          // the texture's extent: uv = 1/2 + (x, y) / (2 z tan(cutoff))
   SpotFalloff falloff_kind = SpotFalloff::LinearAngle;
 
-  // The cone's angles in radians (0 <= beam <= cutoff <= π/2, cutoff > 0)
-  // and its falloff's shape.
+  // The cone's angles in radians (0 <= beam <= cutoff <= π, cutoff > 0;
+  // π/2 at most with a projected texture) and its falloff's shape.
   void set_cone(double cutoff_rad, double beam_rad, SpotFalloff kind) {
     cutoff = float(cutoff_rad);
     beam = float(beam_rad);

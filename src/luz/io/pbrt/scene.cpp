@@ -566,7 +566,7 @@ class PbrtScene final : public ParserTarget {
       SpotLight l;
       const Vec3 from = ps.get_point3("from", {0, 0, 0}), to = ps.get_point3("to", {0, 0, 1});
       const double cone = ps.get_float("coneangle", 30), delta = ps.get_float("conedeltaangle", 5);
-      if (!(cone > 0 && cone <= 90)) error(at, "coneangle must be in (0, 90] degrees");
+      if (!(cone > 0 && cone <= 180)) error(at, "coneangle must be in (0, 180] degrees");
       if (!(delta >= 0 && delta <= cone)) error(at, "conedeltaangle must be in [0, coneangle]");
       // pbrt's smoothstep falloff integrated over the sphere.
       const double cos_end = std::cos(cone * M_PI / 180), cos_start = std::cos((cone - delta) * M_PI / 180);
@@ -1585,7 +1585,13 @@ class PbrtScene final : public ParserTarget {
     } else if (has_pixels) {
       const std::vector<int> b = fp.get_ints("pixelbounds");
       if (b.size() != 4) error(film_loc_, "pixelbounds needs 4 integers x0 x1 y0 y1");
-      std::copy(b.begin(), b.end(), bounds);
+      // Beyond the film: clamped to it with a warning, as pbrt-v4.
+      const long c[4] = {std::clamp<long>(b[0], 0, w), std::clamp<long>(b[1], 0, w), std::clamp<long>(b[2], 0, h),
+                         std::clamp<long>(b[3], 0, h)};
+      if (!std::equal(c, c + 4, b.begin()) && c[0] < c[1] && c[2] < c[3])
+        builder_.warn(film_loc_, "pixelbounds extends beyond the " + std::to_string(w) + "×" + std::to_string(h) +
+                                     " film: clamped to it");
+      std::copy(c, c + 4, bounds);
     }
     fp.get_string("filename", "");  // Luz names its output on the command line (-o)
     fp.get_bool("savefp16", true);
