@@ -25,7 +25,10 @@
 //    MikkTSpace gives a mesh without TANGENT, mirrored uv layouts too;
 //    x and y times normalTexture.scale, §3.9.3); TANGENT is ignored with a
 //    warning (the tangent follows dp/du). occlusionTexture is ignored (the path
-//    tracer computes occlusion). doubleSided -> Bsdf::two_sided.
+//    tracer computes occlusion). doubleSided -> Bsdf::two_sided; a
+//    one-sided surface's back is black and opaque rather than culled (a
+//    rasteriser's culling, followed by rays, would let light leak through
+//    single-sided walls).
 //    KHR_materials_ior sets the dielectric f0; KHR_materials_transmission
 //    (factor, texture's R) makes it gltf_pbr.h's thin transmitting sheet
 //    (two-sided whatever doubleSided says; KHR_materials_volume ignored).
@@ -56,7 +59,8 @@
 //    environment of radiance 1 with a warning, as for OBJ and PLY files.
 //  - Camera: the first node with a camera in traversal order, or the one
 //    whose camera or node has the name asked (luz render --camera NAME) (perspective:
-//    yfov, aspectRatio; orthographic: xmag, ymag); none: the bounds framed
+//    yfov, aspectRatio; orthographic: xmag, ymag; znear and zfar unused: rays
+//    start at the camera, as for Mitsuba's near_clip); none: the bounds framed
 //    as for an OBJ. The film is 512 pixels high (wide by the aspect ratio).
 //  - Images: 8 or 16 bits per channel (16 reduced to 8), RGBA.
 #include "luz/io/gltf.h"
