@@ -474,6 +474,18 @@ TEST_F(GltfFiles, MorphTargetsAtTheirWeights) {
   std::string wrong = json;
   wrong.replace(wrong.find("\"weights\":[0.5]"), 15, "\"weights\":[0.5,1]");
   luz_test::expect_load_refused(gltf("wrong.gltf", bin, wrong), "wrong.gltf", "nodes[1]: weights has 2 numbers for 1 morph targets");
+  // KHR_mesh_quantization: displacements of (unnormalised) shorts, the same.
+  std::vector<int16_t> qdelta = {0, 0, 0, 0, 4, 0, 0, 0, 0, 0, 4, 0};
+  std::string quantized = json;
+  auto swap = [&](const std::string& from, const std::string& to) { quantized.replace(quantized.find(from), from.size(), to); };
+  swap("\"byteOffset\":60,\"byteLength\":48}", "\"byteOffset\":60,\"byteLength\":24}");
+  swap("{\"bufferView\":3,\"componentType\":5126", "{\"bufferView\":3,\"componentType\":5122");
+  Scene q = load_scene(gltf("qmorph.gltf", quad_bin() + bytes(qdelta), quantized + ",\"extensionsUsed\":[\"KHR_mesh_quantization\"]"));
+  float top = 0;
+  for (const Vec3& p : q.positions) top = std::max(top, p.y);
+  EXPECT_EQ(top, 5.f);
+  luz_test::expect_load_refused(gltf("qmorph2.gltf", quad_bin() + bytes(qdelta), quantized), "qmorph2.gltf",
+                                "POSITION must be VEC3 of floats (other types need KHR_mesh_quantization)");
 }
 
 // alphaMode MASK with a constant alpha: opacity 0 below the cutoff, 1 at or

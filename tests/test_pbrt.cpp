@@ -455,7 +455,7 @@ TEST_F(PbrtScene, UnusedParametersWarnAndUnsupportedThingsAreNamed) {
   luz_test::expect_load_refused(
       write("bounds.pbrt", "Film \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 16 \"integer pixelbounds\" [ 40 50 0 8 ]\n"
                            "WorldBegin\n" + quad(-1, 1)),
-      "bounds.pbrt:1", "the crop window [32, 32) × [0, 8) is empty or leaves the 32×16 film");
+      "bounds.pbrt:1", "pixelbounds [40, 50) × [0, 8) holds no pixel of the 32×16 film");
 }
 
 TEST_F(PbrtScene, MaterialsMapOntoLuzModels) {
@@ -546,6 +546,27 @@ TEST_F(PbrtScene, ScaledImageTextures) {
       write("neg.pbrt", scene_text("", "Texture \"img\" \"spectrum\" \"imagemap\" \"string filename\" \"t.pfm\" \"float scale\" -1\n" +
                                           quad(-1, 1))),
       "neg.pbrt:6", "imagemap 'scale' must be finite and ≥ 0");
+}
+
+// A reflectance texture above 1 (an image scaled by 4): pbrt-v4's materials
+// clamp its value to [0, 1] where looked up; Luz the same, with a warning.
+TEST_F(PbrtScene, ReflectanceTexturesAboveOneAreClamped) {
+  luz::write_image((dir / "t.pfm").string(), luz::Image{2, 1, {0.25f, 0.5f, 0.125f, 0.1f, 0.2f, 0.05f}});
+  Scene s = load_scene(write("t.pbrt", scene_text("", quad(2, 3) +
+      "Texture \"img\" \"spectrum\" \"imagemap\" \"string filename\" \"t.pfm\" \"float scale\" 4\n"
+      "Material \"diffuse\" \"texture reflectance\" \"img\"\n"
+      "Shape \"trianglemesh\" \"point3 P\" [ -1 -1 0  1 -1 0  1 1 0  -1 1 0 ] \"point2 uv\" [ 0 0  1 0  1 1  0 1 ]\n"
+      "  \"integer indices\" [ 0 1 2 0 2 3 ]\n")));
+  EXPECT_TRUE(luz_test::has_warning(s, "'reflectance' texture has texels above 1: clamped to 1 where looked up"));
+  const SceneView v = s.view();
+  uint32_t m = 0;
+  while (m < s.materials.size() && s.materials[m].num_bindings == 0) ++m;
+  ASSERT_LT(m, s.materials.size());
+  const float want[2][3] = {{1.f, 1.f, 0.5f}, {0.4f, 0.8f, 0.2f}};  // 4 × the texels, at most 1
+  for (int side = 0; side < 2; ++side) {
+    const Bsdf b = v.materials.bsdf(m, v.textures, {side ? 0.75f : 0.25f, 0.5f});
+    for (int c = 0; c < 3; ++c) EXPECT_FLOAT_EQ(b.diffuse.reflectance[c], want[side][c]) << side << " " << c;
+  }
 }
 
 // pbrt-v4's mix (by a constant or a float texture), scale of two textures,

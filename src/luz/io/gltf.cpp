@@ -492,7 +492,7 @@ class GltfLoader {
       fail(node.weights.empty() ? at("meshes", size_t(mesh)) : where,
            "weights has " + std::to_string(w.size()) + " numbers for " + std::to_string(targets) + " morph targets");
     for (double x : w)
-      if (!std::isfinite(x) || std::fabs(x) > 1e6) fail(where, "a morph weight is not finite");
+      if (!std::isfinite(x) || std::fabs(x) > 1e6) fail(where, "a morph weight is not finite or beyond 1e6");
     bool any = false;
     for (double x : w) any |= x != 0.0;
     if (any) d.weights = w;
@@ -535,11 +535,16 @@ class GltfLoader {
       auto add = [&](const char* name, std::vector<Vec3>& to) {
         auto it = p.targets[k].find(name);
         if (it == p.targets[k].end() || to.empty()) return;
+        // KHR_mesh_quantization: displacements of signed bytes or shorts,
+        // normalised or not (normals: normalised).
         const Data t = accessor(it->second, tw + ": " + name);
-        const bool ok = t.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT ||
-                        (quantized_ && t.normalized && (t.component_type == TINYGLTF_COMPONENT_TYPE_BYTE ||
-                                                        t.component_type == TINYGLTF_COMPONENT_TYPE_SHORT));
-        if (t.components != 3 || !ok) fail(tw, std::string(name) + " must be VEC3 of floats");
+        const bool small = t.component_type == TINYGLTF_COMPONENT_TYPE_BYTE || t.component_type == TINYGLTF_COMPONENT_TYPE_SHORT;
+        const bool normal = std::string(name) == "NORMAL";
+        const bool ok = t.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT || (quantized_ && small && (t.normalized || !normal));
+        if (t.components != 3 || !ok)
+          fail(tw, std::string(name) + " must be VEC3 of floats" +
+                       (quantized_ ? std::string(" or ") + (normal ? "normalised " : "") + "bytes or shorts (KHR_mesh_quantization)"
+                                   : std::string(" (other types need KHR_mesh_quantization)")));
         if (t.count != to.size()) fail(tw, std::string(name) + " and the primitive's differ in count");
         for (size_t i = 0; i < to.size(); ++i) to[i] += vec3(t, i) * w;
       };
@@ -639,7 +644,7 @@ class GltfLoader {
   std::vector<Part> primitives(int mesh, const Matrix4& world, const Deform* deform = nullptr) {
     std::vector<Part> parts;
     const tinygltf::Mesh& m = model_.meshes[size_t(mesh)];
-    bool flip = world.det3() < 0.0;
+    const bool flip = world.det3() < 0.0;
     for (size_t pi = 0; pi < m.primitives.size(); ++pi) {
       const tinygltf::Primitive& p = m.primitives[pi];
       const std::string where = at("meshes", size_t(mesh)) + "." + at("primitives", pi);
@@ -656,7 +661,9 @@ class GltfLoader {
       const size_t n = pos.count;
       if (n > size_t(UINT32_MAX / 2)) fail(where, "too many vertices");
       // Once per placement where the mesh is not instanced (add_mesh): many nodes add up.
-      require_memory(uint64_t(n) * (2 * sizeof(Vec3) + sizeof(Vec2) + 3 * sizeof(uint32_t)), path_,
+      // Skinned: a matrix, a weight sum and the local copies per vertex too.
+      const uint64_t skinning = deform && deform->skin ? sizeof(Matrix4) + sizeof(double) + 2 * sizeof(Vec3) + 1 : 0;
+      require_memory(uint64_t(n) * (4 * sizeof(Vec3) + sizeof(Vec2) + 3 * sizeof(uint32_t) + skinning), path_,
                      where + ": its " + std::to_string(n) + " vertices");
       TriangleMesh mesh;  // positions, normals in world space (SceneBuilder checks them)
       std::vector<Vec3> local(n), local_n;
@@ -668,9 +675,11 @@ class GltfLoader {
         for (size_t i = 0; i < n; ++i) local_n[i] = vec3(nd, i);
       }
       if (deform) morph(p, *deform, local, local_n, where);
+      std::vector<bool> mirrored;  // skinned: per vertex, whether its matrix mirrors (the winding then reverses)
       if (deform && deform->skin) {
         const std::vector<Matrix4> mv = skin_matrices(p, *deform, n, where);
-        flip = n > 0 && mv[0].det3() < 0.0;
+        mirrored.resize(n);
+        for (size_t i = 0; i < n; ++i) mirrored[i] = mv[i].det3() < 0.0;
         mesh.positions.resize(n);
         for (size_t i = 0; i < n; ++i) mesh.positions[i] = mv[i].point(local[i]);
         mesh.normals.resize(local_n.size());
@@ -713,7 +722,7 @@ class GltfLoader {
       }
       std::vector<uint32_t>& tris = mesh.indices;
       auto tri = [&](uint32_t a, uint32_t b, uint32_t c) {
-        if (flip) std::swap(b, c);
+        if (mirrored.empty() ? flip : bool(mirrored[a])) std::swap(b, c);
         tris.insert(tris.end(), {a, b, c});
       };
       if (mode == TINYGLTF_MODE_TRIANGLES) {

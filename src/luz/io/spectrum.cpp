@@ -68,8 +68,8 @@ Vec3 sampled_spectrum_xyz(const std::vector<double>& pairs) {
     if (i > 0 && !(pairs[i] > pairs[i - 2])) throw std::invalid_argument("a spectrum's wavelengths must increase");
   }
   const size_t n = pairs.size() / 2;
+  if (n == 1) throw std::invalid_argument("a spectrum of one (wavelength, value) pair is non-zero at one wavelength only");
   const Vec3 c = xyz_luminance_one([&](double l) {
-    if (n == 1) return pairs[1];
     if (l < pairs[0] || l > pairs[2 * (n - 1)]) return 0.0;  // pbrt-v4's PiecewiseLinearSpectrum: 0 outside
     size_t k = 0;
     while (k + 2 < n && pairs[2 * (k + 1)] < l) ++k;

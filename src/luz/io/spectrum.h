@@ -25,8 +25,9 @@ Color blackbody_rgb(double kelvin);
 // A piecewise-linear spectrum given as (λ nm, value) pairs, λ increasing,
 // 0 outside them (pbrt-v4's PiecewiseLinearSpectrum), in CIE 1931 XYZ and
 // in linear sRGB, scaled to luminance 1 as pbrt-v4's lights emit any
-// spectrum but RGB; a lone pair is a constant. Throws
-// std::invalid_argument for bad pairs or no luminance. Out-of-gamut
+// spectrum but RGB. Throws std::invalid_argument for bad pairs, a lone
+// pair (non-zero at one wavelength: pbrt-v4 warns and renders it black) or
+// no luminance. Out-of-gamut
 // spectra come out with negative sRGB components: the caller clamps.
 Vec3 sampled_spectrum_xyz(const std::vector<double>& pairs);
 Color sampled_spectrum_rgb(const std::vector<double>& pairs);

@@ -16,7 +16,7 @@ enum class BsdfPart : uint8_t { Front, Second, Back, BlendWeight };
 
 // What a float parameter takes of its texture's luminance l: l, or sqrt(l)
 // (pbrt-v4's remaproughness: alpha = sqrt(roughness) at each lookup).
-enum class TextureMap : uint8_t { Identity, Sqrt };
+enum class TextureMap : uint8_t { Identity, Sqrt, Clamp01 };  // Clamp01: pbrt-v4's reflectances
 
 // Texture `texture` drives parameter `param` of `part`. A colour parameter
 // takes the texture's RGB value, a float one its luminance (Mitsuba's eval_1)
@@ -93,10 +93,11 @@ struct MaterialsView {
       return;
     }
     BsdfComponent& c = t.part == BsdfPart::Front ? b : (t.part == BsdfPart::Second ? b.second : b.back);
-    if (Color* p = color_param(c, t.param)) *p = v;
-    else if (float* f = float_param(c, t.param)) {
+    if (Color* p = color_param(c, t.param)) {
+      *p = t.map == TextureMap::Clamp01 ? Color{clamp(v.x, 0.f, 1.f), clamp(v.y, 0.f, 1.f), clamp(v.z, 0.f, 1.f)} : v;
+    } else if (float* f = float_param(c, t.param)) {
       const float l = luminance(v);
-      *f = t.map == TextureMap::Sqrt ? sqrtf(max(l, 0.f)) : l;
+      *f = t.map == TextureMap::Sqrt ? sqrtf(max(l, 0.f)) : t.map == TextureMap::Clamp01 ? clamp(l, 0.f, 1.f) : l;
     }
   }
 };

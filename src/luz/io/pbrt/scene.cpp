@@ -1280,9 +1280,9 @@ class PbrtScene final : public ParserTarget {
         if (p->strings.size() != 1) ParamSet::error(*p, "expected one spectrum name");
         if (light && p->strings[0] == "stdillum-D65") {
           out.value = {1, 1, 1};  // luminance 1 (as every light below), sRGB's own white
-        } else if (!named_metal(p->strings[0], out.value)) {
-          ParamSet::error(*p, "spectrum '" + p->strings[0] + "' is not supported (named metals: metal-{Au,Ag,Cu,Al,Cr}-{eta,k}; " +
-                                  (light ? "on lights stdillum-D65; " : "") + "or rgb)");
+        } else if (light || !named_metal(p->strings[0], out.value)) {
+          ParamSet::error(*p, "spectrum '" + p->strings[0] + "' is not supported (" +
+                                  (light ? "on lights stdillum-D65" : "named metals: metal-{Au,Ag,Cu,Al,Cr}-{eta,k}") + "; or rgb)");
         }
       } else if (light) {
         // pbrt-v4 divides every light's spectrum but RGB by its photometric
@@ -1332,10 +1332,11 @@ class PbrtScene final : public ParserTarget {
                     MaterialDesc& d) {
     const ColorParam c = color(ps, name, def, false);
     if (c.texture >= 0) {
-      if (max_component(builder_.texture_stats(c.texture).max) > 1.f)
-        error(at, std::string("'") + name + "' texture has texels above 1 (a reflectance lies in [0, 1])");
-      d.bindings.push_back({c.texture, BsdfPart::Front, param});
-      return c.value;
+      // pbrt-v4's materials clamp a reflectance texture's value to [0, 1].
+      const bool above = max_component(builder_.texture_stats(c.texture).max) > 1.f;
+      if (above) builder_.warn(at, std::string("'") + name + "' texture has texels above 1: clamped to 1 where looked up");
+      d.bindings.push_back({c.texture, BsdfPart::Front, param, above ? TextureMap::Clamp01 : TextureMap::Identity});
+      return above ? vmin(c.value, Color{1, 1, 1}) : c.value;
     }
     Color v = c.value;
     for (int k = 0; k < 3; ++k) v[k] = std::clamp(v[k], 0.f, 1.f);
@@ -1588,7 +1589,11 @@ class PbrtScene final : public ParserTarget {
       // Beyond the film: clamped to it with a warning, as pbrt-v4.
       const long c[4] = {std::clamp<long>(b[0], 0, w), std::clamp<long>(b[1], 0, w), std::clamp<long>(b[2], 0, h),
                          std::clamp<long>(b[3], 0, h)};
-      if (!std::equal(c, c + 4, b.begin()) && c[0] < c[1] && c[2] < c[3])
+      if (!(c[0] < c[1] && c[2] < c[3]))
+        error(film_loc_, "pixelbounds [" + std::to_string(b[0]) + ", " + std::to_string(b[1]) + ") × [" + std::to_string(b[2]) +
+                             ", " + std::to_string(b[3]) + ") holds no pixel of the " + std::to_string(w) + "×" +
+                             std::to_string(h) + " film");
+      if (!std::equal(c, c + 4, b.begin()))
         builder_.warn(film_loc_, "pixelbounds extends beyond the " + std::to_string(w) + "×" + std::to_string(h) +
                                      " film: clamped to it");
       std::copy(c, c + 4, bounds);
