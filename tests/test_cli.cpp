@@ -483,8 +483,8 @@ TEST_F(Cli, MtlColoursAndRanges) {
     write_file(dir / "model.mtl", std::string("newmtl a\nNs 10\n") + key + " 0.5\n");
     expect_bad({"render", "model.obj", "-o", "out.exr"}, "model.mtl", 3, std::string("'") + key + "' needs 3 numbers");
   }
-  write_file(dir / "model.mtl", "newmtl a\nKd 0.2 0.2 0.2\nKs 0.1 2 0.1\n");
-  expect_bad({"render", "model.obj", "-o", "out.exr"}, "model.mtl", 3, "'Ks': '2' must lie in [0, 1]");
+  write_file(dir / "model.mtl", "newmtl a\nKd 0.2 0.2 0.2\nKs 0.1 -2 0.1\n");
+  expect_bad({"render", "model.obj", "-o", "out.exr"}, "model.mtl", 3, "'Ks': '-2' must not be negative");
   write_file(dir / "model.mtl", "newmtl a\nKe 1 -1 1\n");
   expect_bad({"render", "model.obj", "-o", "out.exr"}, "model.mtl", 2, "'Ke': '-1' must not be negative");
 }

@@ -86,7 +86,11 @@ TEST_F(MeshSceneFiles, BadPlyIsRefused) {
 
 namespace {
 
-// An MTL's illum models, constants and maps as Luz materials.
+// An MTL's illum models, constants and maps as Luz materials: illum 5 the
+// specification's Kd diffuse plus a Ks mirror (a blend: w = 0.9 / 0.91 of
+// the largest values, each part divided by its weight), a mirror alone
+// without Kd, diffuse without Ks; illum 7 and 6 glass; Blender's default
+// Kd 0.8 + Ks 0.5 scaled to 1 with a warning.
 TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {
   luz::Scene s = three_faces("m", "newmtl mirror\nKd 0.01 0.01 0.01\nKs 0.9 0.8 0.7\nillum 5\n"
                                   "newmtl glass\nKs 0.3 0.3 0.3\nTf 0.5 0.6 0.7\nNi 1.7\nillum 7\n"
@@ -94,8 +98,16 @@ TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {
                              {"mirror", "glass", "cut"}, false);
   ASSERT_GE(s.materials.size(), 3u);
   const luz::Bsdf& mirror = s.materials[0].bsdf;
-  EXPECT_EQ(mirror.type, luz::BsdfType::SmoothConductor);
-  EXPECT_FLOAT_EQ(mirror.smooth_conductor.specular_reflectance.y, 0.8f);
+  const float w = 0.9f / 0.91f;
+  ASSERT_TRUE(mirror.blend);
+  EXPECT_FLOAT_EQ(mirror.blend_weight, w);
+  EXPECT_EQ(mirror.type, luz::BsdfType::Diffuse);
+  EXPECT_EQ(mirror.second.type, luz::BsdfType::SmoothConductor);
+  // The blend is Kd/π + Ks δ: each part times its weight gives back Kd and Ks, both parts within [0, 1].
+  EXPECT_NEAR((1 - mirror.blend_weight) * mirror.diffuse.reflectance.x, 0.01f, 1e-6f);
+  EXPECT_NEAR(mirror.blend_weight * mirror.second.smooth_conductor.specular_reflectance.y, 0.8f, 1e-6f);
+  EXPECT_LE(mirror.diffuse.reflectance.x, 1.f);
+  EXPECT_LE(mirror.second.smooth_conductor.specular_reflectance.x, 1.f);
   const luz::Bsdf& glass = s.materials[1].bsdf;
   EXPECT_EQ(glass.type, luz::BsdfType::SmoothDielectric);
   EXPECT_FLOAT_EQ(glass.smooth_dielectric.specular_transmittance.z, 0.7f);
@@ -104,6 +116,28 @@ TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {
   const luz::Material& cut = s.materials[2];
   EXPECT_EQ(cut.bsdf.type, luz::BsdfType::Diffuse);
   EXPECT_FLOAT_EQ(cut.opacity, 0.25f);
+
+  luz::Scene t = three_faces("n", "newmtl pure\nKd 0 0 0\nKs 0.9 0.9 0.9\nillum 3\n"
+                                  "newmtl plain\nKd 0.6 0.1 0.1\nKs 0 0 0\nillum 3\n"
+                                  "newmtl spec8\nKd 0 0 0\nKs 0 0 0\nTf 1 1 1\nNi 1.2\nillum 6\n",
+                             {"pure", "plain", "spec8"}, false);
+  EXPECT_EQ(t.materials[0].bsdf.type, luz::BsdfType::SmoothConductor);
+  EXPECT_FALSE(t.materials[0].bsdf.blend);
+  EXPECT_FLOAT_EQ(t.materials[0].bsdf.smooth_conductor.specular_reflectance.x, 0.9f);
+  EXPECT_EQ(t.materials[1].bsdf.type, luz::BsdfType::Diffuse);
+  EXPECT_FLOAT_EQ(t.materials[1].bsdf.diffuse.reflectance.x, 0.6f);
+  EXPECT_EQ(t.materials[2].bsdf.type, luz::BsdfType::SmoothDielectric);  // the MTL specification's example 8
+  EXPECT_FLOAT_EQ(t.materials[2].bsdf.smooth_dielectric.eta, 1.2f);
+
+  luz::Scene b = three_faces("b", "newmtl Material\nNs 250\nKa 1 1 1\nKd 0.8 0.8 0.8\nKs 0.5 0.5 0.5\nKe 0 0 0\n"
+                                  "Ni 1.45\nd 1\nillum 2\n",
+                             {"Material", "Material", "Material"}, false);
+  EXPECT_EQ(b.materials[0].bsdf.type, luz::BsdfType::Phong);
+  EXPECT_FLOAT_EQ(b.materials[0].bsdf.phong.kd.x, 0.8f / 1.3f);
+  EXPECT_FLOAT_EQ(b.materials[0].bsdf.phong.ks.x, 0.5f / 1.3f);
+  std::string all;
+  for (const std::string& warning : b.warnings) all += warning + "\n";
+  EXPECT_NE(all.find("material 'Material': Kd + Ks reaches 1.3"), std::string::npos) << all;
 }
 
 // A missing mtllib and an unknown usemtl are warnings at their lines.
@@ -167,13 +201,12 @@ TEST_F(MeshSceneFiles, MapNsScalesTheExponent) {
   EXPECT_NEAR(right.phong.exponent, 100.f, 1e-3f);
   EXPECT_NEAR(s.materials[0].bsdf.phong.exponent, 50.f * (1.f + 64.f / 255.f), 1e-2f);  // the map's mean
   EXPECT_EQ(s.materials[1].num_bindings, 0u);
-  EXPECT_EQ(s.materials[2].num_bindings, 0u);
+  EXPECT_EQ(s.materials[2].num_bindings, 2u);  // illum 3: map_Kd on the diffuse part, map_Ks on the mirror
   std::string all;
   for (const std::string& w : s.warnings) all += w + "\n";
   EXPECT_NE(all.find("material 'matte': map_Ns is ignored: the material has no glossy part (Ks 0 and no map_Ks)"),
             std::string::npos) << all;
-  EXPECT_NE(all.find("material 'mirror': map_Kd is ignored: the material is a mirror (illum 3)"), std::string::npos) << all;
-  EXPECT_NE(all.find("material 'mirror': map_Ks is ignored"), std::string::npos) << all;
+  EXPECT_NE(all.find("material 'mirror': Kd + Ks reaches 2"), std::string::npos) << all;  // both maps' white texels
 }
 
 // Bad MTL values are refused at their line.

@@ -213,12 +213,10 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text, s
         // tinyobjloader reads a missing g and b as 0 ("Kd 0.5" is red), so colours need all three.
         const bool colour = t[0] == "Kd" || t[0] == "Ks" || t[0] == "Ke" || t[0] == "Ka" || t[0] == "Tf";
         if (colour && t.size() != 4) throw InputError(mtl.string(), n, "'" + t[0] + "' needs 3 numbers (r g b)");
-        // Ranges Luz needs, reported at their line (load_obj_scene checks Kd + Ks per material).
+        // Ranges Luz needs, reported at their line (load_obj_scene scales Kd + Ks above 1 per material).
         for (size_t j = 1; j < t.size(); ++j) {
           double v = std::strtod(t[j].c_str(), nullptr);
-          if ((t[0] == "Kd" || t[0] == "Ks") && !(v >= 0 && v <= 1))
-            throw InputError(mtl.string(), n, "'" + t[0] + "': '" + t[j] + "' must lie in [0, 1]");
-          if ((t[0] == "Ke" || t[0] == "Ns" || t[0] == "Tf") && !(v >= 0))
+          if ((t[0] == "Ke" || t[0] == "Ns" || t[0] == "Tf" || t[0] == "Kd" || t[0] == "Ks") && !(v >= 0))
             throw InputError(mtl.string(), n, "'" + t[0] + "': '" + t[j] + "' must not be negative");
           if ((t[0] == "d" || t[0] == "Tr") && !(v >= 0 && v <= 1))
             throw InputError(mtl.string(), n, "'" + t[0] + "': '" + t[j] + "' must lie in [0, 1]");

@@ -13,7 +13,7 @@ struct ObjMaterial {
   std::string name;
   Color kd{0.5f, 0.5f, 0.5f}, ks{}, ke{};
   float ns = 1.f;
-  int illum = 0;       // 3 and 5: a mirror; 7: glass
+  int illum = 0;       // 3 and 5: diffuse and a mirror; 4, 6, 7, 9: glass
   float ni = 1.f;      // index of refraction
   Color tf{};          // transmission filter
   float d = 1.f;       // opacity ("d", or 1 - "Tr")

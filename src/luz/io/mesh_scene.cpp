@@ -2,6 +2,7 @@
 // Ke as area lights) or PLY (diffuse), a camera framing the bounds, and,
 // when nothing in the file emits, a uniform white sky so that the model shows.
 #include <cmath>
+#include <cstdio>
 
 #include "luz/io/error.h"
 #include "luz/io/load.h"
@@ -32,73 +33,102 @@ Scene finish_mesh_scene(SceneBuilder& builder, bool has_emitter) {
 
 namespace {
 
-// An MTL material as a Luz material: illum 3 and 5 a mirror of reflectance
-// Ks, illum 7 glass of index Ni (Ks reflecting, Tf transmitting, each white
-// when black), the others Kd/Ks/Ns as modified Phong (diffuse without Ks),
-// two-sided. map_Kd and map_Ks drive Kd and Ks (in place of the constants, as
-// most renderers read them), map_Ns multiplies Ns (as the MTL specification
-// says), map_bump is a bump map (-bm its scale), map_d
-// and d the opacity. Texture maps on faces without texture coordinates are
-// dropped with a warning.
+// An MTL material as a Luz material, two-sided:
+//  - illum 4, 6, 7 and 9 (the MTL specification's transparent ones, as
+//    Blender's importer and Mitsuba 0.6 read them) glass of index Ni (Ks
+//    reflecting, Tf transmitting, each white when black);
+//  - illum 3 and 5 the specification's Kd diffuse plus a mirror of
+//    reflectance Ks: a blend of the two (without Ks, plain diffuse);
+//  - the others Kd/Ks/Ns as modified Phong (diffuse without Ks).
+// Kd + Ks above 1 (Blender writes Kd 0.8, Ks 0.5) is scaled to 1 with a
+// warning: the models conserve energy. map_Kd and map_Ks drive Kd and Ks
+// (in place of the constants, as most renderers read them), map_Ns
+// multiplies Ns (as the MTL specification says), map_bump is a bump map
+// (-bm its scale), map_d and d the opacity. Texture maps on faces without
+// texture coordinates are dropped with a warning.
 MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjMaterial& m, bool has_uvs) {
   for (int k = 0; k < 3; ++k) {
-    if (m.kd[k] < 0 || m.ks[k] < 0 || m.kd[k] + m.ks[k] > 1.f)
-      builder.error(at, "material '" + m.name + "': Kd + Ks must lie in [0, 1] per channel");
+    if (!(m.kd[k] >= 0.f && m.ks[k] >= 0.f) || !std::isfinite(m.kd[k] + m.ks[k]))
+      builder.error(at, "material '" + m.name + "': Kd and Ks must be finite and not negative");
     if (!std::isfinite(m.ke[k]) || m.ke[k] < 0) builder.error(at, "material '" + m.name + "': bad Ke");
   }
   if (!(m.ns >= 0)) builder.error(at, "material '" + m.name + "': Ns must be ≥ 0");
   MaterialDesc d;
-  auto white_if_black = [](Color c) { return is_black(c) ? Color{1.f, 1.f, 1.f} : c; };
-  if (m.illum == 3 || m.illum == 5) {
-    Color eta, k;
-    find_conductor_preset("none", eta, k);
-    d.bsdf = Bsdf::make_smooth_conductor(eta, k, white_if_black(m.ks), true);
-  } else if (m.illum == 7) {
-    d.bsdf = Bsdf::make_smooth_dielectric(m.ni, 1.f, white_if_black(m.ks), white_if_black(m.tf));
-  } else {
-    d.bsdf = is_black(m.ks) && m.map_ks.empty() ? Bsdf::make_diffuse(m.kd, true)
-                                                 : Bsdf::make_phong(m.kd, m.ks, m.ns, true);
-  }
   d.opacity = m.d;
-  const bool phong = d.bsdf.type == BsdfType::Phong;
   const std::string maps[] = {m.map_kd, m.map_ks, m.map_ns, m.map_bump, m.map_d};
   bool any = false;
   for (const std::string& f : maps) any |= !f.empty();
-  if (any && !has_uvs) {
+  const bool textured = any && has_uvs;
+  if (any && !has_uvs)
     builder.warn(at, "material '" + m.name + "': its texture maps are ignored (its faces have no texture coordinates)");
-    return d;
-  }
   auto image = [&](const std::string& file, bool srgb) {
     ImageTextureDesc t;
     t.path = file;
     t.srgb = srgb;
     return builder.add_image_texture(at, t);
   };
-  const bool reflects = d.bsdf.type == BsdfType::Diffuse || phong;
-  const std::string model = m.illum == 7 ? "glass (illum 7)" : "a mirror (illum " + std::to_string(m.illum) + ")";
-  if (!m.map_kd.empty()) {
-    if (reflects)
-      d.bindings.push_back({image(m.map_kd, true), BsdfPart::Front,
-                            phong ? BsdfParam::DiffuseReflectance : BsdfParam::Reflectance});
-    else
-      builder.warn(at, "material '" + m.name + "': map_Kd is ignored: the material is " + model);
-  }
-  if (!m.map_ks.empty()) {
-    if (phong) d.bindings.push_back({image(m.map_ks, true), BsdfPart::Front, BsdfParam::SpecularReflectance});
-    else builder.warn(at, "material '" + m.name + "': map_Ks is ignored: the material is " + model);
-  }
-  // map_Ns: a scalar map (its luminance, linear) that multiplies Ns, as the
-  // MTL specification has it.
-  if (!m.map_ns.empty()) {
-    if (phong) {
-      const int32_t ns = builder.add_scaled_texture(at, image(m.map_ns, false), Color{m.ns, m.ns, m.ns});
-      d.bindings.push_back({ns, BsdfPart::Front, BsdfParam::Exponent});
-      d.bsdf.phong.exponent = luminance(builder.texture_stats(ns).mean);  // a textured parameter holds its mean
+  const int32_t kd_tex = textured && !m.map_kd.empty() ? image(m.map_kd, true) : -1;
+  const int32_t ks_tex = textured && !m.map_ks.empty() ? image(m.map_ks, true) : -1;
+  auto white_if_black = [](Color c) { return is_black(c) ? Color{1.f, 1.f, 1.f} : c; };
+  auto ignored = [&](const char* map, const std::string& model) {
+    builder.warn(at, "material '" + m.name + "': " + map + " is ignored: the material is " + model);
+  };
+  const bool glass = m.illum == 4 || m.illum == 6 || m.illum == 7 || m.illum == 9;
+  if (glass) {
+    d.bsdf = Bsdf::make_smooth_dielectric(m.ni, 1.f, white_if_black(m.ks), white_if_black(m.tf));
+    const std::string model = "glass (illum " + std::to_string(m.illum) + ")";
+    if (kd_tex >= 0) ignored("map_Kd", model);
+    if (ks_tex >= 0) ignored("map_Ks", model);
+    if (textured && !m.map_ns.empty()) ignored("map_Ns", model);
+  } else {
+    // The largest Kd + Ks over the channels (a map's by its largest texel).
+    const Color kd = kd_tex >= 0 ? builder.texture_stats(kd_tex).max : m.kd;
+    const Color ks = ks_tex >= 0 ? builder.texture_stats(ks_tex).max : m.ks;
+    const float sum = max_component(kd + ks), scale = sum > 1.f ? 1.f / sum : 1.f;
+    if (scale < 1.f) {
+      char msg[160];
+      std::snprintf(msg, sizeof msg, "Kd + Ks reaches %.3g: both scaled by %.3g (the model conserves energy)", sum, scale);
+      builder.warn(at, "material '" + m.name + "': " + msg);
+    }
+    auto scaled = [&](int32_t tex, float k) { return k == 1.f ? tex : builder.add_scaled_texture(at, tex, Color{k, k, k}); };
+    const bool specular = !is_black(m.ks) || ks_tex >= 0;
+    if ((m.illum == 3 || m.illum == 5) && specular) {
+      // Kd/π + Ks δ as (1 - w) (Kd / (1 - w)) / π + w (Ks / w) δ, with w
+      // Ks's share of the two largest values, so that both stay in [0, 1].
+      const float sd = max_component(kd) * scale, ss = max_component(ks) * scale;
+      const float w = ss / (sd + ss);
+      Color eta, k;
+      find_conductor_preset("none", eta, k);
+      const Bsdf mirror = Bsdf::make_smooth_conductor(eta, k, m.ks * (scale / w), true);
+      if (sd > 0.f) {
+        d.bsdf = Bsdf::make_blend(Bsdf::make_diffuse(m.kd * (scale / (1.f - w)), true), mirror, w);
+        if (kd_tex >= 0) d.bindings.push_back({scaled(kd_tex, scale / (1.f - w)), BsdfPart::Front, BsdfParam::Reflectance});
+        if (ks_tex >= 0) d.bindings.push_back({scaled(ks_tex, scale / w), BsdfPart::Second, BsdfParam::SpecularReflectance});
+      } else {
+        d.bsdf = mirror;
+        if (ks_tex >= 0) d.bindings.push_back({scaled(ks_tex, scale / w), BsdfPart::Front, BsdfParam::SpecularReflectance});
+      }
+      if (textured && !m.map_ns.empty()) ignored("map_Ns", "a mirror (illum " + std::to_string(m.illum) + ")");
     } else {
-      builder.warn(at, "material '" + m.name + "': map_Ns is ignored: the material has no glossy part (" +
-                           (reflects ? std::string("Ks 0 and no map_Ks") : "it is " + model) + ")");
+      const bool phong = specular;
+      d.bsdf = phong ? Bsdf::make_phong(m.kd * scale, m.ks * scale, m.ns, true) : Bsdf::make_diffuse(m.kd * scale, true);
+      if (kd_tex >= 0)
+        d.bindings.push_back({scaled(kd_tex, scale), BsdfPart::Front, phong ? BsdfParam::DiffuseReflectance : BsdfParam::Reflectance});
+      if (ks_tex >= 0) d.bindings.push_back({scaled(ks_tex, scale), BsdfPart::Front, BsdfParam::SpecularReflectance});
+      // map_Ns: a scalar map (its luminance, linear) that multiplies Ns, as
+      // the MTL specification has it.
+      if (textured && !m.map_ns.empty()) {
+        if (phong) {
+          const int32_t ns = builder.add_scaled_texture(at, image(m.map_ns, false), Color{m.ns, m.ns, m.ns});
+          d.bindings.push_back({ns, BsdfPart::Front, BsdfParam::Exponent});
+          d.bsdf.phong.exponent = luminance(builder.texture_stats(ns).mean);  // a textured parameter holds its mean
+        } else {
+          builder.warn(at, "material '" + m.name + "': map_Ns is ignored: the material has no glossy part (Ks 0 and no map_Ks)");
+        }
+      }
     }
   }
+  if (!textured) return d;
   if (!m.map_bump.empty()) {
     d.bump_map = image(m.map_bump, false);
     d.bump_scale = m.bump_multiplier;
