@@ -7,6 +7,7 @@
 
 #include "scene_helpers.h"
 #include "luz/io/image.h"
+#include "luz/io/mesh_obj.h"
 #include "temp_dir.h"
 
 namespace {
@@ -207,6 +208,75 @@ TEST_F(MeshSceneFiles, MapNsScalesTheExponent) {
   EXPECT_NE(all.find("material 'matte': map_Ns is ignored: the material has no glossy part (Ks 0 and no map_Ks)"),
             std::string::npos) << all;
   EXPECT_NE(all.find("material 'mirror': Kd + Ks reaches 2"), std::string::npos) << all;  // both maps' white texels
+}
+
+// Normals and texture coordinates per face corner: a face without vn is
+// shaded flat (its own normal, not the file's dropped everywhere), a face
+// without vt reads (0, 0), each with a warning.
+TEST_F(MeshSceneFiles, CornersWithoutNormalsOrCoordinates) {
+  const std::string obj = write("mixed.obj",
+                                "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 1\nvn 0.6 0 0.8\nvt 0.25 0.75\n"
+                                "f 1/1/1 2/1/1 3/1/1\nf 2 4 3\n");
+  const luz::ObjMesh m = luz::read_obj(obj, false, luz::ObjTexcoords::Yes);
+  ASSERT_EQ(m.indices.size(), 6u);
+  ASSERT_EQ(m.normals.size(), m.positions.size());
+  ASSERT_EQ(m.texcoords.size(), m.positions.size());
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_FLOAT_EQ(m.normals[m.indices[size_t(k)]].x, 0.6f);  // the file's
+    EXPECT_FLOAT_EQ(m.texcoords[m.indices[size_t(k)]].y, 0.25f);  // 1 - vt.v
+  }
+  // (1,0,0), (1,1,1), (0,1,0): (0,1,1) × (-1,1,0) = (-1, -1, 1), over √3.
+  const float r = 1.f / std::sqrt(3.f);
+  for (int k = 3; k < 6; ++k) {
+    const luz::Vec3 n = m.normals[m.indices[size_t(k)]];
+    EXPECT_NEAR(n.x, -r, 1e-6f);
+    EXPECT_NEAR(n.y, -r, 1e-6f);
+    EXPECT_NEAR(n.z, r, 1e-6f);
+    EXPECT_EQ(m.texcoords[m.indices[size_t(k)]].x, 0.f);
+    EXPECT_EQ(m.texcoords[m.indices[size_t(k)]].y, 1.f);
+  }
+  std::string all;
+  for (const luz::ObjWarning& w : m.warnings) all += w.message + "\n";
+  EXPECT_NE(all.find("1 triangles lack normals (vn) where others have them: shaded flat"), std::string::npos) << all;
+  EXPECT_NE(all.find("1 triangles lack texture coordinates (vt) where others have them: read as (0, 0)"), std::string::npos) << all;
+}
+
+// Map statements as the MTL specification reads them: options before the
+// file name, -o and -s with one to three numbers (tinyobjloader took the
+// file name for a missing third number), placing the map (Luz's v is
+// 1 - the file's: v' = s v + 1 - s - o); other options warned about and
+// ignored; d multiplies map_d; an unknown option is an error at its line.
+TEST_F(MeshSceneFiles, MapOptionsAndPlacement) {
+  luz::Image tex{2, 1, {0.f, 0.f, 0.f, 1.f, 1.f, 1.f}};
+  luz::write_image((dir / "t pic.pfm").string(), tex);
+  luz::Scene s = three_faces("o", "newmtl a\nKd 1 1 1\nmap_Kd -o 0.5 0.25 t pic.pfm\n"
+                                  "newmtl b\nKd 1 1 1\nmap_Kd -s 2 4 -clamp on t pic.pfm\n"
+                                  "newmtl c\nKd 1 1 1\nd 0.5\nmap_d t pic.pfm\n",
+                             {"a", "b", "c"}, true);
+  ASSERT_GE(s.materials.size(), 3u);
+  auto kd = [&](int m) {
+    EXPECT_EQ(s.materials[size_t(m)].num_bindings, 1u) << m;
+    return s.textures[size_t(s.texture_bindings[s.materials[size_t(m)].first_binding].texture)];
+  };
+  const luz::Texture a = kd(0), b = kd(1);
+  EXPECT_EQ(a.to_uv.a, 1.f);
+  EXPECT_EQ(a.to_uv.c, 0.5f);
+  EXPECT_EQ(a.to_uv.e, 1.f);
+  EXPECT_EQ(a.to_uv.f, -0.25f);
+  EXPECT_EQ(b.to_uv.a, 2.f);
+  EXPECT_EQ(b.to_uv.e, 4.f);
+  EXPECT_EQ(b.to_uv.f, -3.f);
+  const luz::Material& c = s.materials[2];
+  ASSERT_GE(c.opacity_texture, 0);
+  const luz::SceneView v = s.view();
+  EXPECT_FLOAT_EQ(luz::luminance(v.textures.eval(uint32_t(c.opacity_texture), {0.75f, 0.5f})), 0.5f);  // white texel × d
+  std::string all;
+  for (const std::string& w : s.warnings) all += w + "\n";
+  EXPECT_NE(all.find("o.mtl:6: warning: 'map_Kd': option(s) -clamp not supported: ignored"), std::string::npos) << all;
+
+  write("bad.mtl", "newmtl a\nmap_Kd -zz 1 t.png\n");
+  const std::string obj = write("badopt.obj", "mtllib bad.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl a\nf 1/1 2/1 3/1\n");
+  luz_test::expect_load_refused(obj, "bad.mtl:2", "'map_Kd': unknown option -zz");
 }
 
 // Bad MTL values are refused at their line.

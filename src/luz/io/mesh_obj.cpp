@@ -173,10 +173,69 @@ class ObjChecker {
   size_t total_v_ = 0, total_vt_ = 0, total_vn_ = 0;
 };
 
+// A texture map statement of an MTL file as the MTL specification reads
+// it: options, then the file name (which may hold blanks). tinyobjloader
+// reads -o, -s and -t as three numbers and takes the file name for a
+// missing third (the specification lets v and w be left out), losing the
+// map; this reading gives the name and the placement instead.
+struct MtlMap {
+  std::string file;
+  ObjMaterial::MapPlacement placement;
+};
+// (material name, map index 0-4: kd, ks, ns, bump, d) -> its statement.
+using MtlMaps = std::map<std::pair<std::string, int>, MtlMap>;
+
+int map_index(const std::string& key) {
+  if (key == "map_Kd") return 0;
+  if (key == "map_Ks") return 1;
+  if (key == "map_Ns") return 2;
+  if (key == "map_bump" || key == "map_Bump" || key == "bump") return 3;
+  if (key == "map_d") return 4;
+  return -1;
+}
+
+bool is_number(const std::string& t) {
+  double v;
+  const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
+  return r.ec == std::errc() && r.ptr == t.data() + t.size();
+}
+
+// `t`: the statement's tokens (t[0] the keyword). Options Luz does not
+// apply are said in a warning.
+MtlMap parse_map(const std::vector<std::string>& t, const std::string& mtl, int line, std::vector<ObjWarning>& warnings) {
+  MtlMap m;
+  size_t i = 1;
+  std::string ignored;
+  while (i < t.size() && t[i].size() > 1 && t[i][0] == '-' && !is_number(t[i])) {
+    const std::string o = t[i++];
+    if (o == "-o" || o == "-s" || o == "-t") {
+      float v[3] = {o == "-s" ? 1.f : 0.f, o == "-s" ? 1.f : 0.f, o == "-s" ? 1.f : 0.f};
+      int n = 0;
+      for (; n < 3 && i < t.size() && is_number(t[i]); ++n) v[n] = std::strtof(t[i++].c_str(), nullptr);
+      if (n == 0) throw InputError(mtl, line, "'" + t[0] + "': " + o + " needs a number");
+      if (o == "-o") m.placement.ou = v[0], m.placement.ov = v[1];
+      else if (o == "-s") m.placement.su = v[0], m.placement.sv = v[1];
+      else ignored += " -t";
+      continue;
+    }
+    int args = o == "-mm" ? 2 : (o == "-bm" || o == "-blendu" || o == "-blendv" || o == "-clamp" || o == "-cc" ||
+                                 o == "-boost" || o == "-texres" || o == "-imfchan" || o == "-type")
+                                    ? 1
+                                    : -1;
+    if (args < 0) throw InputError(mtl, line, "'" + t[0] + "': unknown option " + o);
+    if (i + size_t(args) > t.size()) throw InputError(mtl, line, "'" + t[0] + "': " + o + " needs " + std::to_string(args) + " value(s)");
+    if (o != "-bm" && !(o == "-clamp" && t[i] == "off") && !((o == "-blendu" || o == "-blendv") && t[i] == "on")) ignored += " " + o;
+    i += size_t(args);
+  }
+  for (; i < t.size(); ++i) m.file += (m.file.empty() ? "" : " ") + t[i];
+  if (!ignored.empty()) warnings.push_back({mtl, line, "'" + t[0] + "': option(s)" + ignored + " not supported: ignored"});
+  return m;
+}
+
 // The MTL files an OBJ names, checked the same way: tinyobjloader reads an
 // unparsable or non-finite colour or exponent as 0 without a word.
 // Missing files are warnings (the faces get the default material).
-void check_mtl_files(const std::string& obj_path, const std::string& obj_text, std::vector<ObjWarning>& warnings) {
+void check_mtl_files(const std::string& obj_path, const std::string& obj_text, std::vector<ObjWarning>& warnings, MtlMaps& maps) {
   int obj_line = 0;
   for (size_t pos = 0; pos < obj_text.size();) {
     std::string line = next_line(obj_text, pos);
@@ -199,11 +258,17 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text, s
       ss << in.rdbuf();
       const std::string mtl_text = ss.str();
       int n = 0;
+      std::string material;
       for (size_t mpos = 0; mpos < mtl_text.size();) {
         std::string ml = next_line(mtl_text, mpos);
         ++n;
         std::vector<std::string> t = split(ml.substr(0, ml.find('#')));
         if (t.empty()) continue;
+        if (t[0] == "newmtl") material = t.size() > 1 ? t[1] : "";
+        if (const int k = map_index(t[0]); k >= 0) {
+          maps[{material, k}] = parse_map(t, mtl.string(), n, warnings);
+          continue;
+        }
         static const char* kNumeric[] = {"Kd", "Ks", "Ke", "Ka", "Tf", "Ns", "Ni", "d", "Tr", "illum"};
         bool numeric = false;
         for (const char* key : kNumeric) numeric = numeric || t[0] == key;
@@ -263,6 +328,7 @@ struct ObjFile {
   bool with_materials = false;
   tinyobj::ObjReader reader;
   std::vector<ObjWarning> warnings;
+  MtlMaps maps;  // the MTL files' map statements as Luz reads them
 };
 
 namespace {
@@ -274,7 +340,7 @@ std::shared_ptr<ObjFile> parse_obj(const std::string& path, bool with_materials)
   file->with_materials = with_materials;
   const std::string& text = file->text;
   ObjChecker(path, text).check();
-  if (with_materials) check_mtl_files(path, text, file->warnings);
+  if (with_materials) check_mtl_files(path, text, file->warnings, file->maps);
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
@@ -339,11 +405,14 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords) {
       om.ni = m.ior;
       om.tf = {m.transmittance[0], m.transmittance[1], m.transmittance[2]};
       om.d = m.dissolve;
-      om.map_kd = texture(m.diffuse_texname);
-      om.map_ks = texture(m.specular_texname);
-      om.map_ns = texture(m.specular_highlight_texname);
-      om.map_bump = texture(m.bump_texname);
-      om.map_d = texture(m.alpha_texname);
+      std::string* names[5] = {&om.map_kd, &om.map_ks, &om.map_ns, &om.map_bump, &om.map_d};
+      const std::string* tiny[5] = {&m.diffuse_texname, &m.specular_texname, &m.specular_highlight_texname, &m.bump_texname,
+                                    &m.alpha_texname};
+      for (int k = 0; k < 5; ++k) {
+        auto it = file.maps.find({m.name, k});
+        *names[k] = texture(it != file.maps.end() ? it->second.file : *tiny[k]);
+        if (it != file.maps.end()) om.placement[k] = it->second.placement;
+      }
       om.bump_multiplier = m.bump_texopt.bump_multiplier;
       textured |= !(om.map_kd + om.map_ks + om.map_ns + om.map_bump + om.map_d).empty();
       mesh.materials.push_back(om);
@@ -351,51 +420,75 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords) {
     unknown_materials(path, text, reader.GetMaterials(), mesh.warnings);
   }
 
-  // Normals and texture coordinates are used only when every face vertex has one.
+  // Normals and texture coordinates per face corner, as Blender's importer
+  // reads them: a corner without a normal takes its face's (flat), one
+  // without texture coordinates (0, 0), with a warning, where other
+  // corners of the file have them.
   const bool want_texcoords = texcoords == ObjTexcoords::Yes || (texcoords == ObjTexcoords::IfTextured && textured);
-  bool all_normals = !attrib.normals.empty(), all_texcoords = want_texcoords && !attrib.texcoords.empty();
-  for (const tinyobj::shape_t& shape : reader.GetShapes())
-    for (const tinyobj::index_t& idx : shape.mesh.indices) {
-      if (idx.normal_index < 0) all_normals = false;
-      if (idx.texcoord_index < 0) all_texcoords = false;
-    }
+  const bool any_normals = !attrib.normals.empty(), any_texcoords = want_texcoords && !attrib.texcoords.empty();
+  size_t flat_faces = 0, bare_faces = 0;
 
-  // De-indexing: one vertex per distinct (position, normal, uv) index triple.
+  // De-indexing: one vertex per distinct (position, normal, uv) index
+  // triple; a corner without a normal is its face's own vertex (normal
+  // index -2 - face), one without texture coordinates has uv index -1.
   struct TripleHash {
-    size_t operator()(const std::tuple<int, int, int>& k) const {
-      const uint64_t a = uint32_t(std::get<0>(k)), b = uint32_t(std::get<1>(k)), c = uint32_t(std::get<2>(k));
+    size_t operator()(const std::tuple<long long, long long, long long>& k) const {
+      const uint64_t a = uint64_t(std::get<0>(k)), b = uint64_t(std::get<1>(k)), c = uint64_t(std::get<2>(k));
       return size_t((a * 0x9E3779B97F4A7C15ull) ^ (b * 0xC2B2AE3D27D4EB4Full) ^ (c * 0x165667B19E3779F9ull));
     }
   };
-  std::unordered_map<std::tuple<int, int, int>, uint32_t, TripleHash> remap;
+  std::unordered_map<std::tuple<long long, long long, long long>, uint32_t, TripleHash> remap;
   remap.reserve(attrib.vertices.size() / 3);
+  long long face_number = 0;
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
     const auto& ix = shape.mesh.indices;
-    for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
+    for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f, ++face_number) {
+      const tinyobj::index_t* corner = &ix[3 * f];
+      bool flat = false, bare = false;
+      Vec3 face_normal{0.f, 0.f, 1.f};
+      if (any_normals && (corner[0].normal_index < 0 || corner[1].normal_index < 0 || corner[2].normal_index < 0)) {
+        auto p = [&](int j) {
+          const float* v = &attrib.vertices[3 * size_t(corner[j].vertex_index)];
+          return Vec3{v[0], v[1], v[2]};
+        };
+        const Vec3 n = cross(p(1) - p(0), p(2) - p(0));
+        if (length(n) > 0.f && is_finite(n)) face_normal = normalize(n);
+      }
       for (int j = 0; j < 3; ++j) {
-        const tinyobj::index_t& idx = ix[3 * f + j];
-        std::tuple<int, int, int> key{idx.vertex_index, all_normals ? idx.normal_index : -1,
-                                      all_texcoords ? idx.texcoord_index : -1};
+        const tinyobj::index_t& idx = corner[j];
+        const bool has_normal = any_normals && idx.normal_index >= 0, has_uv = any_texcoords && idx.texcoord_index >= 0;
+        flat |= any_normals && !has_normal;
+        bare |= any_texcoords && !has_uv;
+        std::tuple<long long, long long, long long> key{idx.vertex_index,
+                                                        has_normal ? idx.normal_index : any_normals ? -2 - face_number : -1,
+                                                        has_uv ? idx.texcoord_index : -1};
         auto it = remap.find(key);
         if (it == remap.end()) {
           it = remap.emplace(key, uint32_t(mesh.positions.size())).first;
           const float* v = &attrib.vertices[3 * size_t(idx.vertex_index)];
           mesh.positions.push_back({v[0], v[1], v[2]});
-          if (all_normals) {
-            const float* n = &attrib.normals[3 * size_t(idx.normal_index)];
-            mesh.normals.push_back({n[0], n[1], n[2]});
+          if (any_normals) {
+            const float* n = has_normal ? &attrib.normals[3 * size_t(idx.normal_index)] : nullptr;
+            mesh.normals.push_back(n ? Vec3{n[0], n[1], n[2]} : face_normal);
           }
-          if (all_texcoords) {
-            const float* t = &attrib.texcoords[2 * size_t(idx.texcoord_index)];
-            mesh.texcoords.push_back({t[0], 1.f - t[1]});
+          if (any_texcoords) {
+            const float* t = has_uv ? &attrib.texcoords[2 * size_t(idx.texcoord_index)] : nullptr;
+            mesh.texcoords.push_back(t ? Vec2{t[0], 1.f - t[1]} : Vec2{0.f, 1.f});  // vt (0, 0), v flipped
           }
         }
         mesh.indices.push_back(it->second);
       }
+      flat_faces += flat;
+      bare_faces += bare;
       int mat = f < shape.mesh.material_ids.size() ? shape.mesh.material_ids[f] : -1;
       mesh.face_material.push_back(with_materials ? mat : -1);
     }
   }
+  if (flat_faces > 0)
+    mesh.warnings.push_back({path, 0, std::to_string(flat_faces) + " triangles lack normals (vn) where others have them: shaded flat"});
+  if (bare_faces > 0)
+    mesh.warnings.push_back({path, 0, std::to_string(bare_faces) +
+                                          " triangles lack texture coordinates (vt) where others have them: read as (0, 0)"});
   if (mesh.indices.empty()) throw InputError(path, 0, "mesh has no faces");
   return mesh;
 }

@@ -20,6 +20,12 @@ struct ObjMaterial {
   // Texture files (paths resolved against the OBJ's directory; empty: none).
   std::string map_kd, map_ks, map_ns, map_bump, map_d;
   float bump_multiplier = 1.f;  // map_bump's -bm
+  // Each map's -s and -o (u' = s u + o, in the MTL's v-up coordinates), in
+  // the order kd, ks, ns, bump, d.
+  struct MapPlacement {
+    float su = 1.f, sv = 1.f, ou = 0.f, ov = 0.f;
+  };
+  MapPlacement placement[5];
 };
 
 // A warning of the reader: the file and line it concerns.

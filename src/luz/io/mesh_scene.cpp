@@ -44,8 +44,9 @@ namespace {
 // warning: the models conserve energy. map_Kd and map_Ks drive Kd and Ks
 // (in place of the constants, as most renderers read them), map_Ns
 // multiplies Ns (as the MTL specification says), map_bump is a bump map
-// (-bm its scale), map_d and d the opacity. Texture maps on faces without
-// texture coordinates are dropped with a warning.
+// (-bm its scale), d times map_d the opacity; maps are placed by their -s
+// and -o. Texture maps on faces without texture coordinates are dropped
+// with a warning.
 MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjMaterial& m, bool has_uvs) {
   for (int k = 0; k < 3; ++k) {
     if (!(m.kd[k] >= 0.f && m.ks[k] >= 0.f) || !std::isfinite(m.kd[k] + m.ks[k]))
@@ -61,14 +62,19 @@ MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjM
   const bool textured = any && has_uvs;
   if (any && !has_uvs)
     builder.warn(at, "material '" + m.name + "': its texture maps are ignored (its faces have no texture coordinates)");
-  auto image = [&](const std::string& file, bool srgb) {
+  // Map k (kd, ks, ns, bump, d) placed by its -s and -o: u' = s u + o in
+  // the MTL's v-up coordinates; Luz's v (1 - the file's) maps to
+  // s_v v + 1 - s_v - o_v.
+  auto image = [&](const std::string& file, bool srgb, int k) {
+    const ObjMaterial::MapPlacement& p = m.placement[k];
     ImageTextureDesc t;
     t.path = file;
     t.srgb = srgb;
+    t.to_uv = {p.su, 0.f, p.ou, 0.f, p.sv, 1.f - p.sv - p.ov};
     return builder.add_image_texture(at, t);
   };
-  const int32_t kd_tex = textured && !m.map_kd.empty() ? image(m.map_kd, true) : -1;
-  const int32_t ks_tex = textured && !m.map_ks.empty() ? image(m.map_ks, true) : -1;
+  const int32_t kd_tex = textured && !m.map_kd.empty() ? image(m.map_kd, true, 0) : -1;
+  const int32_t ks_tex = textured && !m.map_ks.empty() ? image(m.map_ks, true, 1) : -1;
   auto white_if_black = [](Color c) { return is_black(c) ? Color{1.f, 1.f, 1.f} : c; };
   auto ignored = [&](const char* map, const std::string& model) {
     builder.warn(at, "material '" + m.name + "': " + map + " is ignored: the material is " + model);
@@ -119,7 +125,7 @@ MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjM
       // the MTL specification has it.
       if (textured && !m.map_ns.empty()) {
         if (phong) {
-          const int32_t ns = builder.add_scaled_texture(at, image(m.map_ns, false), Color{m.ns, m.ns, m.ns});
+          const int32_t ns = builder.add_scaled_texture(at, image(m.map_ns, false, 2), Color{m.ns, m.ns, m.ns});
           d.bindings.push_back({ns, BsdfPart::Front, BsdfParam::Exponent});
           d.bsdf.phong.exponent = luminance(builder.texture_stats(ns).mean);  // a textured parameter holds its mean
         } else {
@@ -130,10 +136,14 @@ MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjM
   }
   if (!textured) return d;
   if (!m.map_bump.empty()) {
-    d.bump_map = image(m.map_bump, false);
+    d.bump_map = image(m.map_bump, false, 3);
     d.bump_scale = m.bump_multiplier;
   }
-  if (!m.map_d.empty()) d.opacity_texture = image(m.map_d, false);
+  // map_d times d, as the MTL specification says.
+  if (!m.map_d.empty()) {
+    const int32_t alpha = image(m.map_d, false, 4);
+    d.opacity_texture = m.d < 1.f ? builder.add_scaled_texture(at, alpha, Color{m.d, m.d, m.d}) : alpha;
+  }
   return d;
 }
 
