@@ -4,6 +4,7 @@
 #include <array>
 
 #include <cmath>
+#include <filesystem>
 
 #include "scene_helpers.h"
 #include "luz/io/image.h"
@@ -274,6 +275,12 @@ TEST_F(MeshSceneFiles, MapOptionsAndPlacement) {
   for (const std::string& w : s.warnings) all += w + "\n";
   EXPECT_NE(all.find("o.mtl:6: warning: 'map_Kd': option(s) -clamp not supported: ignored"), std::string::npos) << all;
 
+  // A Windows path, beside the MTL file in a folder of its own.
+  std::filesystem::create_directories(dir / "sub" / "img");
+  luz::write_image((dir / "sub" / "img" / "t.pfm").string(), tex);
+  write("sub/s.mtl", "newmtl a\nKd 1 1 1\nmap_Kd img\\t.pfm\n");
+  luz::Scene w = luz::load_scene(write("w.obj", "mtllib sub/s.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl a\nf 1/1 2/1 3/1\n"));
+  EXPECT_EQ(w.materials[0].num_bindings, 1u);
   write("bad.mtl", "newmtl a\nmap_Kd -zz 1 t.png\n");
   const std::string obj = write("badopt.obj", "mtllib bad.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nusemtl a\nf 1/1 2/1 3/1\n");
   luz_test::expect_load_refused(obj, "bad.mtl:2", "'map_Kd': unknown option -zz");

@@ -2,6 +2,7 @@
 
 #include <tiny_obj_loader.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -174,7 +175,8 @@ class ObjChecker {
 };
 
 // A texture map statement of an MTL file as the MTL specification reads
-// it: options, then the file name (which may hold blanks). tinyobjloader
+// it: options, then the file name (which may hold blanks; backslashes read
+// as slashes), found beside the MTL file or else the OBJ. tinyobjloader
 // reads -o, -s and -t as three numbers and takes the file name for a
 // missing third (the specification lets v and w be left out), losing the
 // map; this reading gives the name and the placement instead.
@@ -228,6 +230,12 @@ MtlMap parse_map(const std::vector<std::string>& t, const std::string& mtl, int 
     i += size_t(args);
   }
   for (; i < t.size(); ++i) m.file += (m.file.empty() ? "" : " ") + t[i];
+  std::replace(m.file.begin(), m.file.end(), '\\', '/');  // Windows paths, as Mitsuba 0.6 reads them
+  // Beside the MTL file where it is there (Blender's importer), else
+  // beside the OBJ (obj_mesh).
+  std::error_code ec;
+  const std::filesystem::path beside = std::filesystem::path(mtl).parent_path() / m.file;
+  if (!m.file.empty() && std::filesystem::exists(beside, ec)) m.file = std::filesystem::absolute(beside, ec).string();
   if (!ignored.empty()) warnings.push_back({mtl, line, "'" + t[0] + "': option(s)" + ignored + " not supported: ignored"});
   return m;
 }
