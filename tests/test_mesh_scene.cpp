@@ -242,6 +242,30 @@ TEST_F(MeshSceneFiles, CornersWithoutNormalsOrCoordinates) {
   EXPECT_NE(all.find("1 triangles lack texture coordinates (vt) where others have them: read as (0, 0)"), std::string::npos) << all;
 }
 
+// Smoothing groups (`s N`) on faces without vn: a group's faces share the
+// area-weighted mean normal at each position; `s off` faces stay flat. A
+// roof of two triangles of equal area, (0,0,0) (1,0,0) (0,1,1) with
+// (1,0,0) × (0,1,1) = (0,-1,1) and (1,0,0) (1,1,0) (0,1,1) with
+// (0,1,0) × (-1,1,1) = (1,0,1): smoothed, the shared corners (1,0,0) and
+// (0,1,1) take (1,-1,2)/√6.
+TEST_F(MeshSceneFiles, SmoothingGroupsShadeFacesWithoutNormals) {
+  const std::string roof = "v 0 0 0\nv 1 0 0\nv 0 1 1\nv 1 1 0\n";
+  auto shared_normal = [&](const std::string& name, const std::string& s) {
+    const luz::ObjMesh m = luz::read_obj(write(name, roof + s + "\nf 1 2 3\nf 2 4 3\n"), true, luz::ObjTexcoords::No,
+                                         luz::ObjSmoothing::Groups);
+    EXPECT_EQ(m.indices.size(), 6u);
+    return m.normals.empty() ? luz::Vec3{} : m.normals[m.indices[1]];  // the first face's corner (1,0,0)
+  };
+  const luz::Vec3 smooth = shared_normal("s1.obj", "s 1");
+  const float r6 = 1.f / std::sqrt(6.f);
+  EXPECT_NEAR(smooth.x, r6, 1e-6f);
+  EXPECT_NEAR(smooth.y, -r6, 1e-6f);
+  EXPECT_NEAR(smooth.z, 2 * r6, 1e-6f);
+  EXPECT_EQ(length(shared_normal("off.obj", "s off")), 0.f);  // no normals: flat, as before
+  // Mitsuba's obj shape reads no groups (ObjSmoothing::Ignore): its own smoothing rule applies.
+  EXPECT_TRUE(luz::read_obj(write("s1b.obj", roof + "s 1\nf 1 2 3\nf 2 4 3\n"), false).normals.empty());
+}
+
 // Map statements as the MTL specification reads them: options before the
 // file name, -o and -s with one to three numbers (tinyobjloader took the
 // file name for a missing third number), placing the map (Luz's v is

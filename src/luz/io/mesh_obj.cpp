@@ -386,11 +386,11 @@ std::shared_ptr<ObjFile> parse_obj(const std::string& path, bool with_materials)
 
 std::shared_ptr<const ObjFile> read_obj_file(const std::string& path) { return parse_obj(path, false); }
 
-ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texcoords) {
-  return obj_mesh(*parse_obj(path, with_materials), texcoords);
+ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texcoords, ObjSmoothing smoothing) {
+  return obj_mesh(*parse_obj(path, with_materials), texcoords, smoothing);
 }
 
-ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords) {
+ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoothing) {
   const std::string& path = file.path;
   const std::string& text = file.text;
   const bool with_materials = file.with_materials;
@@ -431,9 +431,36 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords) {
   // Normals and texture coordinates per face corner, as Blender's importer
   // reads them: a corner without a normal takes its face's (flat), one
   // without texture coordinates (0, 0), with a warning, where other
-  // corners of the file have them.
+  // corners of the file have them. With ObjSmoothing::Groups, a corner
+  // without a normal on a face of smoothing group g != 0 takes the
+  // area-weighted mean of the normals of group g's faces at its position.
   const bool want_texcoords = texcoords == ObjTexcoords::Yes || (texcoords == ObjTexcoords::IfTextured && textured);
-  const bool any_normals = !attrib.normals.empty(), any_texcoords = want_texcoords && !attrib.texcoords.empty();
+  const bool any_texcoords = want_texcoords && !attrib.texcoords.empty();
+  auto position = [&](int v) {
+    const float* p = &attrib.vertices[3 * size_t(v)];
+    return Vec3{p[0], p[1], p[2]};
+  };
+  auto group_of = [&](const tinyobj::shape_t& shape, size_t f) {
+    return smoothing == ObjSmoothing::Groups && f < shape.mesh.smoothing_group_ids.size() ? shape.mesh.smoothing_group_ids[f] : 0u;
+  };
+  struct PairHash {
+    size_t operator()(const std::pair<unsigned, int>& k) const {
+      return size_t((uint64_t(k.first) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(uint32_t(k.second)) * 0xC2B2AE3D27D4EB4Full));
+    }
+  };
+  std::unordered_map<std::pair<unsigned, int>, Vec3, PairHash> group_normal;  // (group, position) -> sum of area-weighted normals
+  for (const tinyobj::shape_t& shape : reader.GetShapes())
+    for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
+      const unsigned g = group_of(shape, f);
+      if (g == 0) continue;
+      const tinyobj::index_t* c = &shape.mesh.indices[3 * f];
+      if (c[0].normal_index >= 0 && c[1].normal_index >= 0 && c[2].normal_index >= 0) continue;
+      const Vec3 n = cross(position(c[1].vertex_index) - position(c[0].vertex_index),
+                           position(c[2].vertex_index) - position(c[0].vertex_index));
+      if (!is_finite(n)) continue;
+      for (int j = 0; j < 3; ++j) group_normal[{g, c[j].vertex_index}] += n;
+    }
+  const bool any_normals = !attrib.normals.empty() || !group_normal.empty();
   size_t flat_faces = 0, bare_faces = 0;
 
   // De-indexing: one vertex per distinct (position, normal, uv) index
@@ -452,24 +479,25 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords) {
     const auto& ix = shape.mesh.indices;
     for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f, ++face_number) {
       const tinyobj::index_t* corner = &ix[3 * f];
+      const unsigned group = group_of(shape, f);
       bool flat = false, bare = false;
       Vec3 face_normal{0.f, 0.f, 1.f};
       if (any_normals && (corner[0].normal_index < 0 || corner[1].normal_index < 0 || corner[2].normal_index < 0)) {
-        auto p = [&](int j) {
-          const float* v = &attrib.vertices[3 * size_t(corner[j].vertex_index)];
-          return Vec3{v[0], v[1], v[2]};
-        };
-        const Vec3 n = cross(p(1) - p(0), p(2) - p(0));
+        const Vec3 n = cross(position(corner[1].vertex_index) - position(corner[0].vertex_index),
+                             position(corner[2].vertex_index) - position(corner[0].vertex_index));
         if (length(n) > 0.f && is_finite(n)) face_normal = normalize(n);
       }
       for (int j = 0; j < 3; ++j) {
         const tinyobj::index_t& idx = corner[j];
         const bool has_normal = any_normals && idx.normal_index >= 0, has_uv = any_texcoords && idx.texcoord_index >= 0;
-        flat |= any_normals && !has_normal;
+        const bool smooth = any_normals && !has_normal && group != 0;
+        flat |= any_normals && !has_normal && !smooth && !attrib.normals.empty();
         bare |= any_texcoords && !has_uv;
-        std::tuple<long long, long long, long long> key{idx.vertex_index,
-                                                        has_normal ? idx.normal_index : any_normals ? -2 - face_number : -1,
-                                                        has_uv ? idx.texcoord_index : -1};
+        // Normal key: the file's index; a smoothing group's -(2^40 + g); a flat face's own -2 - face.
+        std::tuple<long long, long long, long long> key{
+            idx.vertex_index,
+            has_normal ? idx.normal_index : smooth ? -(1ll << 40) - group : any_normals ? -2 - face_number : -1,
+            has_uv ? idx.texcoord_index : -1};
         auto it = remap.find(key);
         if (it == remap.end()) {
           it = remap.emplace(key, uint32_t(mesh.positions.size())).first;
@@ -477,7 +505,9 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords) {
           mesh.positions.push_back({v[0], v[1], v[2]});
           if (any_normals) {
             const float* n = has_normal ? &attrib.normals[3 * size_t(idx.normal_index)] : nullptr;
-            mesh.normals.push_back(n ? Vec3{n[0], n[1], n[2]} : face_normal);
+            Vec3 sm = smooth ? group_normal[{group, idx.vertex_index}] : Vec3{};
+            if (smooth) sm = length(sm) > 0.f ? normalize(sm) : face_normal;
+            mesh.normals.push_back(n ? Vec3{n[0], n[1], n[2]} : smooth ? sm : face_normal);
           }
           if (any_texcoords) {
             const float* t = has_uv ? &attrib.texcoords[2 * size_t(idx.texcoord_index)] : nullptr;

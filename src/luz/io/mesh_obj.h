@@ -50,10 +50,15 @@ struct ObjMesh {
 // at every uv seam, which costs an untextured mesh memory and Embree its quads.
 enum class ObjTexcoords { No, Yes, IfTextured /* when a material has a texture map */ };
 
+// Whether the smoothing groups (`s N`) shade faces without vn smooth: the
+// OBJ format's reading; Mitsuba's obj shape smooths or not by its own rule.
+enum class ObjSmoothing { Ignore, Groups };
+
 // Throws InputError. Faces are triangulated; vertices are de-indexed per
 // (position, normal) pair, or per (position, normal, texture coordinate)
 // triple when texture coordinates are read (only then is `texcoords` filled).
-ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texcoords = ObjTexcoords::No);
+ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texcoords = ObjTexcoords::No,
+                 ObjSmoothing smoothing = ObjSmoothing::Ignore);
 
 // read_obj(path, false, texcoords) in two steps, for readers that read files
 // ahead in parallel: reading, checking and parsing the file (the costly
@@ -61,6 +66,6 @@ ObjMesh read_obj(const std::string& path, bool with_materials, ObjTexcoords texc
 struct ObjFile;
 std::shared_ptr<const ObjFile> read_obj_file(const std::string& path);
 // ...then the de-indexing, which depends on texcoords.
-ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords);
+ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoothing = ObjSmoothing::Ignore);
 
 }  // namespace luz

@@ -150,7 +150,7 @@ MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjM
 }  // namespace
 
 Scene load_obj_scene(const std::string& path) {
-  ObjMesh mesh = read_obj(path, true, ObjTexcoords::IfTextured);
+  ObjMesh mesh = read_obj(path, true, ObjTexcoords::IfTextured, ObjSmoothing::Groups);
   SceneBuilder builder(path);
   for (const ObjWarning& w : mesh.warnings) builder.warn({w.file, w.line}, w.message);
   const SourceLoc at{path, 0};
