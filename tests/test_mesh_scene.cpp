@@ -270,13 +270,14 @@ TEST_F(MeshSceneFiles, SmoothingGroupsShadeFacesWithoutNormals) {
 // file name, -o and -s with one to three numbers (tinyobjloader took the
 // file name for a missing third number), placing the map (Luz's v is
 // 1 - the file's: v' = s v + 1 - s - o); other options warned about and
-// ignored; d multiplies map_d; an unknown option is an error at its line.
+// ignored; d multiplies map_d; an unknown option is an error at its line;
+// statements Luz does not read (map_Ke) are warnings.
 TEST_F(MeshSceneFiles, MapOptionsAndPlacement) {
   luz::Image tex{2, 1, {0.f, 0.f, 0.f, 1.f, 1.f, 1.f}};
   luz::write_image((dir / "t pic.pfm").string(), tex);
   luz::Scene s = three_faces("o", "newmtl a\nKd 1 1 1\nmap_Kd -o 0.5 0.25 t pic.pfm\n"
                                   "newmtl b\nKd 1 1 1\nmap_Kd -s 2 4 -clamp on t pic.pfm\n"
-                                  "newmtl c\nKd 1 1 1\nd 0.5\nmap_d t pic.pfm\n",
+                                  "newmtl c\nKd 1 1 1\nd 0.5\nmap_d t pic.pfm\nmap_Ke t pic.pfm\n",
                              {"a", "b", "c"}, true);
   ASSERT_GE(s.materials.size(), 3u);
   auto kd = [&](int m) {
@@ -298,6 +299,7 @@ TEST_F(MeshSceneFiles, MapOptionsAndPlacement) {
   std::string all;
   for (const std::string& w : s.warnings) all += w + "\n";
   EXPECT_NE(all.find("o.mtl:6: warning: 'map_Kd': option(s) -clamp not supported: ignored"), std::string::npos) << all;
+  EXPECT_NE(all.find("o.mtl:11: warning: 'map_Ke' is not supported: ignored"), std::string::npos) << all;
 
   // A Windows path, beside the MTL file in a folder of its own.
   std::filesystem::create_directories(dir / "sub" / "img");

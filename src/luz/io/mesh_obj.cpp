@@ -277,6 +277,15 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text, s
           maps[{material, k}] = parse_map(t, mtl.string(), n, warnings);
           continue;
         }
+        // Statements Luz does not read, said rather than dropped.
+        static const char* kIgnored[] = {"map_Ke", "map_Ka", "refl", "disp", "decal", "norm", "map_Pr", "map_Pm",
+                                         "Pr", "Pm", "Ps", "Pc", "Pcr", "aniso", "anisor", "sharpness"};
+        bool ignored = false;
+        for (const char* key : kIgnored) ignored = ignored || t[0] == key;
+        if (ignored) {
+          warnings.push_back({mtl.string(), n, "'" + t[0] + "' is not supported: ignored"});
+          continue;
+        }
         static const char* kNumeric[] = {"Kd", "Ks", "Ke", "Ka", "Tf", "Ns", "Ni", "d", "Tr", "illum"};
         bool numeric = false;
         for (const char* key : kNumeric) numeric = numeric || t[0] == key;
