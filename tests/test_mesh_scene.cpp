@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <string>
+#include <vector>
 
 #include "scene_helpers.h"
 #include "luz/io/image.h"
@@ -264,6 +266,49 @@ TEST_F(MeshSceneFiles, SmoothingGroupsShadeFacesWithoutNormals) {
   EXPECT_EQ(length(shared_normal("off.obj", "s off")), 0.f);  // no normals: flat, as before
   // Mitsuba's obj shape reads no groups (ObjSmoothing::Ignore): its own smoothing rule applies.
   EXPECT_TRUE(luz::read_obj(write("s1b.obj", roof + "s 1\nf 1 2 3\nf 2 4 3\n"), false).normals.empty());
+}
+
+// Concave faces triangulated whole: the triangles' areas add up to the
+// polygon's (the shoelace formula), each wound as the polygon (+z here), for
+// a dart, a U, an eight-pointed star away from the origin (tinyobjloader's
+// own triangulation filled the dart's notch and dropped half the star) and
+// a comb of 700 corners.
+TEST_F(MeshSceneFiles, ConcaveFacesAreTriangulatedWhole) {
+  auto check = [&](const std::string& name, const std::vector<std::array<double, 2>>& pts) {
+    std::string obj;
+    double shoelace = 0;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      obj += "v " + std::to_string(pts[i][0]) + " " + std::to_string(pts[i][1]) + " 0\n";
+      const auto& a = pts[i];
+      const auto& b = pts[(i + 1) % pts.size()];
+      shoelace += 0.5 * (a[0] * b[1] - b[0] * a[1]);
+    }
+    obj += "f";
+    for (size_t i = 0; i < pts.size(); ++i) obj += " " + std::to_string(i + 1);
+    const luz::ObjMesh m = luz::read_obj(write(name, obj + "\n"), false);
+    EXPECT_EQ(m.indices.size(), 3 * (pts.size() - 2)) << name;
+    double area = 0;
+    for (size_t t = 0; t + 2 < m.indices.size(); t += 3) {
+      const luz::Vec3 a = m.positions[m.indices[t]], b = m.positions[m.indices[t + 1]], c = m.positions[m.indices[t + 2]];
+      const double z = 0.5 * double(cross(b - a, c - a).z);
+      EXPECT_GT(z, 0.0) << name << ": triangle " << t / 3 << " wound against the polygon";
+      area += z;
+    }
+    EXPECT_NEAR(area, shoelace, 1e-4 * shoelace) << name;
+  };
+  check("dart.obj", {{0, 0}, {1, 1}, {2, 0}, {1, 4}});
+  check("u.obj", {{0, 0}, {3, 0}, {3, 3}, {2, 3}, {2, 1}, {1, 1}, {1, 3}, {0, 3}});
+  std::vector<std::array<double, 2>> star;
+  for (int i = 0; i < 16; ++i) {
+    const double r = i % 2 ? 1.0 : 3.0, a = i * M_PI / 8;
+    star.push_back({10 + r * std::cos(a), 10 + r * std::sin(a)});
+  }
+  check("star.obj", star);
+  // A comb of 700 corners (tinyobjloader counts a face's corners modulo 256).
+  std::vector<std::array<double, 2>> comb;
+  for (int i = 0; i < 350; ++i) comb.push_back({double(i), -1.0});  // counter-clockwise: along the bottom, back along the teeth
+  for (int i = 349; i >= 0; --i) comb.push_back({double(i), i % 2 ? 1.0 : 0.0});
+  check("comb.obj", comb);
 }
 
 // Map statements as the MTL specification reads them: options before the

@@ -3,6 +3,7 @@
 #include <tiny_obj_loader.h>
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
@@ -94,6 +95,10 @@ class ObjChecker {
  public:
   ObjChecker(const std::string& path, const std::string& text) : path_(path), text_(text) {}
 
+  // Each face's number of corners, in the file's order (tinyobjloader keeps
+  // them modulo 256).
+  const std::vector<uint32_t>& face_sizes() const { return face_sizes_; }
+
   void check() {
     // Pass 1 counts the vertex data, so positive face indices may refer ahead;
     // pass 2 checks numbers and indices (negative ones are relative to the
@@ -125,6 +130,7 @@ class ObjChecker {
         } else if (key == "f" && pass == 1) {
           if (tok.size() < 4) throw InputError(path_, line_no, "a face needs at least 3 vertices");
           for (size_t k = 1; k < tok.size(); ++k) face_vertex(tok[k], line_no, v, vt, vn);
+          face_sizes_.push_back(uint32_t(tok.size() - 1));
         }
       }
       if (pass == 0) total_v_ = v, total_vt_ = vt, total_vn_ = vn;
@@ -172,6 +178,7 @@ class ObjChecker {
   const std::string& path_;
   const std::string& text_;
   size_t total_v_ = 0, total_vt_ = 0, total_vn_ = 0;
+  std::vector<uint32_t> face_sizes_;
 };
 
 // A texture map statement of an MTL file as the MTL specification reads
@@ -346,9 +353,80 @@ struct ObjFile {
   tinyobj::ObjReader reader;
   std::vector<ObjWarning> warnings;
   MtlMaps maps;  // the MTL files' map statements as Luz reads them
+  // The faces as triangles (triangulate()), each with its face's material
+  // and smoothing group.
+  struct Triangle {
+    tinyobj::index_t corner[3];
+    int material;
+    unsigned group;
+  };
+  std::vector<Triangle> triangles;
 };
 
 namespace {
+
+// A polygon's triangles as corner numbers, in its winding: a fan where it
+// is convex (every corner turns the same way; a quad split along its
+// shorter diagonal), else ear clipping in the plane of its Newell normal,
+// so that concave faces (tinyobjloader's own triangulation fills their
+// notches or drops parts) come out whole. A polygon that is not simple
+// falls back to a fan of what remains.
+void triangulate(const std::vector<Vec3>& p, std::vector<std::array<uint32_t, 3>>& out) {
+  const size_t n = p.size();
+  double nx = 0, ny = 0, nz = 0;  // Newell's normal
+  for (size_t i = 0; i < n; ++i) {
+    const Vec3 a = p[i], b = p[(i + 1) % n];
+    nx += double(a.y - b.y) * (a.z + b.z), ny += double(a.z - b.z) * (a.x + b.x), nz += double(a.x - b.x) * (a.y + b.y);
+  }
+  // Project out the normal's largest axis; `sign` makes the winding counter-clockwise.
+  const int k = std::fabs(nx) >= std::fabs(ny) && std::fabs(nx) >= std::fabs(nz) ? 0 : std::fabs(ny) >= std::fabs(nz) ? 1 : 2;
+  const double sign = (k == 0 ? nx : k == 1 ? ny : nz) < 0 ? -1.0 : 1.0;
+  std::vector<double> u(n), v(n);
+  for (size_t i = 0; i < n; ++i) u[i] = p[i][(k + 1) % 3], v[i] = p[i][(k + 2) % 3];
+  auto turn = [&](size_t a, size_t b, size_t c) {
+    return sign * ((u[b] - u[a]) * (v[c] - v[b]) - (v[b] - v[a]) * (u[c] - u[b]));
+  };
+  bool convex = true;
+  for (size_t i = 0; i < n && convex; ++i) convex = turn(i, (i + 1) % n, (i + 2) % n) >= 0.0;
+  auto fan = [&](const std::vector<uint32_t>& ring) {
+    for (size_t i = 1; i + 1 < ring.size(); ++i) out.push_back({ring[0], ring[i], ring[i + 1]});
+  };
+  if (convex && n == 4) {  // along the shorter diagonal, as tinyobjloader splits quads
+    const Vec3 d02 = p[2] - p[0], d13 = p[3] - p[1];
+    if (dot(d02, d02) < dot(d13, d13)) out.push_back({0, 1, 2}), out.push_back({0, 2, 3});
+    else out.push_back({0, 1, 3}), out.push_back({1, 2, 3});
+    return;
+  }
+  std::vector<uint32_t> ring(n);
+  for (size_t i = 0; i < n; ++i) ring[i] = uint32_t(i);
+  if (convex || n == 3) return fan(ring);
+  // Ear clipping: a convex corner whose triangle holds no other corner.
+  auto inside = [&](uint32_t q, uint32_t a, uint32_t b, uint32_t c) {
+    return turn(a, b, q) >= 0.0 && turn(b, c, q) >= 0.0 && turn(c, a, q) >= 0.0;
+  };
+  size_t i = 0, misses = 0;
+  while (ring.size() > 3) {
+    const size_t m = ring.size();
+    const uint32_t a = ring[(i + m - 1) % m], b = ring[i % m], c = ring[(i + 1) % m];
+    bool ear = turn(a, b, c) > 0.0;
+    for (size_t j = 0; ear && j < m; ++j) {
+      const uint32_t q = ring[j];
+      if (q != a && q != b && q != c && turn(ring[(j + m - 1) % m], q, ring[(j + 1) % m]) <= 0.0 && inside(q, a, b, c))
+        ear = false;  // only a reflex corner can lie inside an ear
+    }
+    if (ear) {
+      out.push_back({a, b, c});
+      ring.erase(ring.begin() + std::ptrdiff_t(i % m));
+      misses = 0;
+      i %= m;  // the ring shifted down: b's successor is at i now (at 0 when b was last)
+    } else if (++misses > m) {
+      return fan(ring);  // no ear: not a simple polygon
+    } else {
+      i = (i + 1) % m;
+    }
+  }
+  out.push_back({ring[0], ring[1], ring[2]});
+}
 
 std::shared_ptr<ObjFile> parse_obj(const std::string& path, bool with_materials) {
   auto file = std::make_shared<ObjFile>();
@@ -356,10 +434,11 @@ std::shared_ptr<ObjFile> parse_obj(const std::string& path, bool with_materials)
   file->text = read_text(path);
   file->with_materials = with_materials;
   const std::string& text = file->text;
-  ObjChecker(path, text).check();
+  ObjChecker checker(path, text);
+  checker.check();
   if (with_materials) check_mtl_files(path, text, file->warnings, file->maps);
   tinyobj::ObjReaderConfig config;
-  config.triangulate = true;
+  config.triangulate = false;  // triangulate() below
   config.vertex_color = false;
   tinyobj::ObjReader& reader = file->reader;
   // Without materials, from the text read already (an empty MTL for any mtllib).
@@ -379,15 +458,37 @@ std::shared_ptr<ObjFile> parse_obj(const std::string& path, bool with_materials)
   for (float x : attrib.texcoords)
     if (!std::isfinite(x)) throw InputError(path, 0, "texture coordinate is not a finite number");
   const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3, nt = attrib.texcoords.size() / 2;
+  std::vector<Vec3> polygon;
+  std::vector<std::array<uint32_t, 3>> tris;
+  const std::vector<uint32_t>& sizes = checker.face_sizes();
+  size_t face = 0;  // in the file's order, across the shapes
   for (const tinyobj::shape_t& shape : reader.GetShapes()) {
-    if (shape.mesh.indices.size() != 3 * shape.mesh.num_face_vertices.size())
-      throw InputError(path, 0, "face triangulation failed");
     for (const tinyobj::index_t& idx : shape.mesh.indices)
       if (idx.vertex_index < 0 || size_t(idx.vertex_index) >= nv ||
           (idx.normal_index >= 0 && size_t(idx.normal_index) >= nn) ||
           (idx.texcoord_index >= 0 && size_t(idx.texcoord_index) >= nt))
         throw InputError(path, 0, "face index out of range");
+    size_t first = 0;
+    for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
+      const size_t n = face < sizes.size() ? sizes[face++] : 0;
+      if (n % 256 != shape.mesh.num_face_vertices[f] || first + n > shape.mesh.indices.size() || n < 3)
+        throw InputError(path, 0, "the faces tinyobjloader read differ from the file's 'f' lines");
+      const tinyobj::index_t* c = &shape.mesh.indices[first];
+      first += n;
+      polygon.resize(n);
+      for (size_t j = 0; j < n; ++j) {
+        const float* q = &attrib.vertices[3 * size_t(c[j].vertex_index)];
+        polygon[j] = {q[0], q[1], q[2]};
+      }
+      tris.clear();
+      triangulate(polygon, tris);
+      const int mat = f < shape.mesh.material_ids.size() ? shape.mesh.material_ids[f] : -1;
+      const unsigned group = f < shape.mesh.smoothing_group_ids.size() ? shape.mesh.smoothing_group_ids[f] : 0u;
+      for (const auto& t : tris) file->triangles.push_back({{c[t[0]], c[t[1]], c[t[2]]}, mat, group});
+    }
+    if (first != shape.mesh.indices.size()) throw InputError(path, 0, "the faces tinyobjloader read differ from the file's 'f' lines");
   }
+  if (face != sizes.size()) throw InputError(path, 0, "the faces tinyobjloader read differ from the file's 'f' lines");
   return file;
 }
 
@@ -449,20 +550,17 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoot
     const float* p = &attrib.vertices[3 * size_t(v)];
     return Vec3{p[0], p[1], p[2]};
   };
-  auto group_of = [&](const tinyobj::shape_t& shape, size_t f) {
-    return smoothing == ObjSmoothing::Groups && f < shape.mesh.smoothing_group_ids.size() ? shape.mesh.smoothing_group_ids[f] : 0u;
-  };
+  auto group_of = [&](const ObjFile::Triangle& t) { return smoothing == ObjSmoothing::Groups ? t.group : 0u; };
   struct PairHash {
     size_t operator()(const std::pair<unsigned, int>& k) const {
       return size_t((uint64_t(k.first) * 0x9E3779B97F4A7C15ull) ^ (uint64_t(uint32_t(k.second)) * 0xC2B2AE3D27D4EB4Full));
     }
   };
   std::unordered_map<std::pair<unsigned, int>, Vec3, PairHash> group_normal;  // (group, position) -> sum of area-weighted normals
-  for (const tinyobj::shape_t& shape : reader.GetShapes())
-    for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f) {
-      const unsigned g = group_of(shape, f);
+  for (const ObjFile::Triangle& t : file.triangles) {
+      const unsigned g = group_of(t);
       if (g == 0) continue;
-      const tinyobj::index_t* c = &shape.mesh.indices[3 * f];
+      const tinyobj::index_t* c = t.corner;
       if (c[0].normal_index >= 0 && c[1].normal_index >= 0 && c[2].normal_index >= 0) continue;
       const Vec3 n = cross(position(c[1].vertex_index) - position(c[0].vertex_index),
                            position(c[2].vertex_index) - position(c[0].vertex_index));
@@ -484,11 +582,11 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoot
   std::unordered_map<std::tuple<long long, long long, long long>, uint32_t, TripleHash> remap;
   remap.reserve(attrib.vertices.size() / 3);
   long long face_number = 0;
-  for (const tinyobj::shape_t& shape : reader.GetShapes()) {
-    const auto& ix = shape.mesh.indices;
-    for (size_t f = 0; f < shape.mesh.num_face_vertices.size(); ++f, ++face_number) {
-      const tinyobj::index_t* corner = &ix[3 * f];
-      const unsigned group = group_of(shape, f);
+  {
+    for (const ObjFile::Triangle& tri : file.triangles) {
+      ++face_number;
+      const tinyobj::index_t* corner = tri.corner;
+      const unsigned group = group_of(tri);
       bool flat = false, bare = false;
       Vec3 face_normal{0.f, 0.f, 1.f};
       if (any_normals && (corner[0].normal_index < 0 || corner[1].normal_index < 0 || corner[2].normal_index < 0)) {
@@ -527,8 +625,7 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoot
       }
       flat_faces += flat;
       bare_faces += bare;
-      int mat = f < shape.mesh.material_ids.size() ? shape.mesh.material_ids[f] : -1;
-      mesh.face_material.push_back(with_materials ? mat : -1);
+      mesh.face_material.push_back(with_materials ? tri.material : -1);
     }
   }
   if (flat_faces > 0)
