@@ -63,6 +63,14 @@ void expect_refused(const std::string& file, const std::function<void(const std:
 void read_image(const std::string& path) { luz::read_image_linear(path); }
 
 // stb_image's HDR run-length decoder read zeros past the end as empty runs, forever.
+// An MTL map statement whose file name starts with a NUL byte: the name,
+// cut at the NUL, named the OBJ's folder, whose reading threw a standard
+// library exception (fuzz_mtl).
+TEST(FuzzRegressions, MtlMapNameWithNul) {
+  expect_refused("mtl-nul-in-map-name.obj", [](const std::string& p) { luz::load_scene(p); },
+                 "'map_Kd': the file name holds a NUL byte");
+}
+
 TEST(FuzzRegressions, HdrRunLengthDataCutShort) {
   expect_refused("hdr-rle-cut-short.hdr", read_image, "cannot read Radiance HDR image: truncated");
 }

@@ -237,6 +237,7 @@ MtlMap parse_map(const std::vector<std::string>& t, const std::string& mtl, int 
     i += size_t(args);
   }
   for (; i < t.size(); ++i) m.file += (m.file.empty() ? "" : " ") + t[i];
+  if (m.file.find('\0') != std::string::npos) throw InputError(mtl, line, "'" + t[0] + "': the file name holds a NUL byte");
   std::replace(m.file.begin(), m.file.end(), '\\', '/');  // Windows paths, as Mitsuba 0.6 reads them
   // Beside the MTL file where it is there (Blender's importer), else
   // beside the OBJ (obj_mesh).

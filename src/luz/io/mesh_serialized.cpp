@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -209,9 +210,19 @@ SerializedMesh read_serialized_memory(const std::string& name, const uint8_t* da
 }
 
 std::vector<uint8_t> read_binary_file(const std::string& path) {
+  // A directory, a FIFO or a device would fail mid-read, block or never end.
+  std::error_code ec;
+  if (path.find('\0') != std::string::npos) throw InputError(path, 0, "the file name holds a NUL byte");
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw InputError(path, 0, "not a regular file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, 0, std::string("cannot open: ") + std::strerror(errno));
-  std::vector<uint8_t> data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::vector<uint8_t> data;
+  try {
+    data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  } catch (const std::ios_base::failure&) {
+    throw InputError(path, 0, "read error");
+  }
   if (in.bad()) throw InputError(path, 0, "read error");
   return data;
 }
