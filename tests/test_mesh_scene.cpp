@@ -144,7 +144,7 @@ TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {
   EXPECT_NE(all.find("material 'Material': Kd + Ks reaches 1.3"), std::string::npos) << all;
 }
 
-// A missing mtllib and an unknown usemtl are warnings at their lines.
+// A missing mtllib, an unknown usemtl and one before its mtllib are warnings at their lines.
 TEST_F(MeshSceneFiles, MissingMaterialsAreWarnings) {
   const std::string obj = write("w.obj", "mtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl ghost\nf 1 2 3\n");
   luz::Scene s = luz::load_scene(obj);
@@ -152,6 +152,9 @@ TEST_F(MeshSceneFiles, MissingMaterialsAreWarnings) {
   EXPECT_NE(s.warnings[0].find("w.obj:1: warning: mtllib 'none.mtl' not found"), std::string::npos) << s.warnings[0];
   EXPECT_NE(s.warnings[1].find("w.obj:5: warning: usemtl 'ghost': no such material"), std::string::npos)
       << s.warnings[1];
+  write("late.mtl", "newmtl red\nKd 1 0 0\n");
+  luz::Scene late = luz::load_scene(write("late.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\nmtllib late.mtl\n"));
+  EXPECT_TRUE(luz_test::has_warning(late, "late.obj:4: warning: usemtl 'red' comes before any mtllib"));
 }
 
 // map_Kd on a quad facing the camera under the white sky: the image's black

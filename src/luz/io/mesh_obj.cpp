@@ -318,18 +318,23 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text, s
   }
 }
 
-// `usemtl` names no material of the MTL files: a warning at its line (the
-// faces get the default material).
+// `usemtl` names no material of the MTL files, or one of an mtllib given
+// only after it (tinyobjloader reads materials as the lines come): a
+// warning at its line (the faces get the default material).
 void unknown_materials(const std::string& path, const std::string& text, const std::vector<tinyobj::material_t>& mats,
                        std::vector<ObjWarning>& warnings) {
   int line_no = 0;
+  bool library = false;  // an mtllib seen
   for (size_t pos = 0; pos < text.size();) {
     const std::vector<std::string> tok = split(next_line(text, pos));
     ++line_no;
+    library |= !tok.empty() && tok[0] == "mtllib";
     if (tok.size() < 2 || tok[0] != "usemtl") continue;
     bool known = false;
     for (const tinyobj::material_t& m : mats) known = known || m.name == tok[1];
     if (!known) warnings.push_back({path, line_no, "usemtl '" + tok[1] + "': no such material: diffuse 0.5"});
+    else if (!library)
+      warnings.push_back({path, line_no, "usemtl '" + tok[1] + "' comes before any mtllib: its faces get diffuse 0.5"});
   }
 }
 
