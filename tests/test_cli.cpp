@@ -480,8 +480,8 @@ TEST_F(Cli, MtlColoursAndRanges) {
   write_file(dir / "model.obj", "mtllib model.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n");
   for (const char* key : {"Kd", "Ks", "Ke"}) {
     SCOPED_TRACE(key);
-    write_file(dir / "model.mtl", std::string("newmtl a\nNs 10\n") + key + " 0.5\n");
-    expect_bad({"render", "model.obj", "-o", "out.exr"}, "model.mtl", 3, std::string("'") + key + "' needs 3 numbers");
+    write_file(dir / "model.mtl", std::string("newmtl a\nNs 10\n") + key + " 0.5 0.5\n");
+    expect_bad({"render", "model.obj", "-o", "out.exr"}, "model.mtl", 3, std::string("'") + key + "' needs 3 numbers (r g b) or one");
   }
   write_file(dir / "model.mtl", "newmtl a\nKd 0.2 0.2 0.2\nKs 0.1 -2 0.1\n");
   expect_bad({"render", "model.obj", "-o", "out.exr"}, "model.mtl", 3, "'Ks': '-2' must not be negative");

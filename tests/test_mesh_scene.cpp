@@ -98,7 +98,7 @@ namespace {
 TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {
   luz::Scene s = three_faces("m", "newmtl mirror\nKd 0.01 0.01 0.01\nKs 0.9 0.8 0.7\nillum 5\n"
                                   "newmtl glass\nKs 0.3 0.3 0.3\nTf 0.5 0.6 0.7\nNi 1.7\nillum 7\n"
-                                  "newmtl cut\nKd 0.4 0.4 0.4\nd 0.25\n",
+                                  "newmtl cut\nKd 0.4\nd 0.25\n",
                              {"mirror", "glass", "cut"}, false);
   ASSERT_GE(s.materials.size(), 3u);
   const luz::Bsdf& mirror = s.materials[0].bsdf;
@@ -119,6 +119,7 @@ TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {
   EXPECT_FLOAT_EQ(glass.smooth_dielectric.eta, 1.7f);
   const luz::Material& cut = s.materials[2];
   EXPECT_EQ(cut.bsdf.type, luz::BsdfType::Diffuse);
+  EXPECT_FLOAT_EQ(cut.bsdf.diffuse.reflectance.z, 0.4f);  // one number: a grey (tinyobjloader read g = b = 0)
   EXPECT_FLOAT_EQ(cut.opacity, 0.25f);
 
   luz::Scene t = three_faces("n", "newmtl pure\nKd 0 0 0\nKs 0.9 0.9 0.9\nillum 3\n"

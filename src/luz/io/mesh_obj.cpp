@@ -193,6 +193,8 @@ struct MtlMap {
 };
 // (material name, map index 0-4: kd, ks, ns, bump, d) -> its statement.
 using MtlMaps = std::map<std::pair<std::string, int>, MtlMap>;
+// (material name, 0-4: Kd, Ks, Ke, Tf, Ka) -> a colour given as one number.
+using MtlGreys = std::map<std::pair<std::string, int>, float>;
 
 int map_index(const std::string& key) {
   if (key == "map_Kd") return 0;
@@ -251,7 +253,8 @@ MtlMap parse_map(const std::vector<std::string>& t, const std::string& mtl, int 
 // The MTL files an OBJ names, checked the same way: tinyobjloader reads an
 // unparsable or non-finite colour or exponent as 0 without a word.
 // Missing files are warnings (the faces get the default material).
-void check_mtl_files(const std::string& obj_path, const std::string& obj_text, std::vector<ObjWarning>& warnings, MtlMaps& maps) {
+void check_mtl_files(const std::string& obj_path, const std::string& obj_text, std::vector<ObjWarning>& warnings, MtlMaps& maps,
+                     MtlGreys& greys) {
   int obj_line = 0;
   for (size_t pos = 0; pos < obj_text.size();) {
     std::string line = next_line(obj_text, pos);
@@ -300,9 +303,15 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text, s
         if (!numeric) continue;
         if (t.size() < 2) throw InputError(mtl.string(), n, "'" + t[0] + "' needs a value");
         for (size_t j = 1; j < t.size(); ++j) check_number(mtl.string(), t[j], n, t[0]);
-        // tinyobjloader reads a missing g and b as 0 ("Kd 0.5" is red), so colours need all three.
+        // One number is a grey (the MTL specification: g and b default to r),
+        // which tinyobjloader reads as red (g = b = 0): kept here for obj_mesh.
         const bool colour = t[0] == "Kd" || t[0] == "Ks" || t[0] == "Ke" || t[0] == "Ka" || t[0] == "Tf";
-        if (colour && t.size() != 4) throw InputError(mtl.string(), n, "'" + t[0] + "' needs 3 numbers (r g b)");
+        if (colour && t.size() == 2) {
+          const int k = t[0] == "Kd" ? 0 : t[0] == "Ks" ? 1 : t[0] == "Ke" ? 2 : t[0] == "Tf" ? 3 : 4;
+          greys[{material, k}] = std::strtof(t[1].c_str(), nullptr);
+        } else if (colour && t.size() != 4) {
+          throw InputError(mtl.string(), n, "'" + t[0] + "' needs 3 numbers (r g b) or one (a grey)");
+        }
         // Ranges Luz needs, reported at their line (load_obj_scene scales Kd + Ks above 1 per material).
         for (size_t j = 1; j < t.size(); ++j) {
           double v = std::strtod(t[j].c_str(), nullptr);
@@ -358,7 +367,8 @@ struct ObjFile {
   bool with_materials = false;
   tinyobj::ObjReader reader;
   std::vector<ObjWarning> warnings;
-  MtlMaps maps;  // the MTL files' map statements as Luz reads them
+  MtlMaps maps;    // the MTL files' map statements as Luz reads them
+  MtlGreys greys;  // and their one-number colours
   // The faces as triangles (triangulate()), each with its face's material
   // and smoothing group.
   struct Triangle {
@@ -442,7 +452,7 @@ std::shared_ptr<ObjFile> parse_obj(const std::string& path, bool with_materials)
   const std::string& text = file->text;
   ObjChecker checker(path, text);
   checker.check();
-  if (with_materials) check_mtl_files(path, text, file->warnings, file->maps);
+  if (with_materials) check_mtl_files(path, text, file->warnings, file->maps, file->greys);
   tinyobj::ObjReaderConfig config;
   config.triangulate = false;  // triangulate() below
   config.vertex_color = false;
@@ -524,10 +534,13 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoot
       om.kd = {m.diffuse[0], m.diffuse[1], m.diffuse[2]};
       om.ks = {m.specular[0], m.specular[1], m.specular[2]};
       om.ke = {m.emission[0], m.emission[1], m.emission[2]};
+      Color* greyed[4] = {&om.kd, &om.ks, &om.ke, &om.tf};
       om.ns = m.shininess;
       om.illum = m.illum;
       om.ni = m.ior;
       om.tf = {m.transmittance[0], m.transmittance[1], m.transmittance[2]};
+      for (int k = 0; k < 4; ++k)
+        if (auto it = file.greys.find({m.name, k}); it != file.greys.end()) *greyed[k] = {it->second, it->second, it->second};
       om.d = m.dissolve;
       std::string* names[5] = {&om.map_kd, &om.map_ks, &om.map_ns, &om.map_bump, &om.map_d};
       const std::string* tiny[5] = {&m.diffuse_texname, &m.specular_texname, &m.specular_highlight_texname, &m.bump_texname,
