@@ -474,8 +474,9 @@ TEST_F(Cli, MtllibThatIsNotAFile) {
   expect_bad({"render", "d.obj", "-o", "out.exr"}, "d.obj", 4, "is not a regular file");
 }
 
-// MTL colours: tinyobjloader reads "Kd 0.5" as (0.5, 0, 0), and out-of-range
-// values were reported against the OBJ without a line.
+// MTL colours of two numbers are refused at their line (one is a grey,
+// three an RGB), and out-of-range values were reported against the OBJ
+// without a line.
 TEST_F(Cli, MtlColoursAndRanges) {
   write_file(dir / "model.obj", "mtllib model.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n");
   for (const char* key : {"Kd", "Ks", "Ke"}) {
