@@ -302,6 +302,8 @@ TEST_F(MeshSceneFiles, ConcaveFacesAreTriangulatedWhole) {
   };
   check("dart.obj", {{0, 0}, {1, 1}, {2, 0}, {1, 4}});
   check("u.obj", {{0, 0}, {3, 0}, {3, 3}, {2, 3}, {2, 1}, {1, 1}, {1, 3}, {0, 3}});
+  // An L with corners on its straight edges (as CAD files split edges).
+  check("l.obj", {{0, 0}, {1, 0}, {2, 0}, {2, 1}, {1, 1}, {1, 2}, {1, 3}, {0, 3}, {0, 2}, {0, 1}});
   std::vector<std::array<double, 2>> star;
   for (int i = 0; i < 16; ++i) {
     const double r = i % 2 ? 1.0 : 3.0, a = i * M_PI / 8;
