@@ -317,6 +317,31 @@ TEST_F(MeshSceneFiles, ConcaveFacesAreTriangulatedWhole) {
   check("comb.obj", comb);
 }
 
+// map_d from an image with an alpha channel reads the alpha (an RGBA map,
+// as Blender's importer): a dark opaque texel stays opaque, a white clear
+// one is cut away; from a grey image without alpha, its luminance. A 2×1
+// 32-bit TGA written here (BGRA, top-left origin).
+TEST_F(MeshSceneFiles, MapDReadsTheAlphaOfAnRgbaImage) {
+  const unsigned char tga[18 + 8] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 1, 0, 32, 8 | 0x20,
+                                     25, 25, 25, 255,  // dark grey, opaque
+                                     255, 255, 255, 0};  // white, clear
+  write("leaf.tga", std::string(reinterpret_cast<const char*>(tga), sizeof tga));
+  luz::write_image((dir / "grey.pfm").string(), luz::Image{2, 1, {0.25f, 0.25f, 0.25f, 1.f, 1.f, 1.f}});
+  luz::Scene s = three_faces("alpha", "newmtl leaf\nKd 1 1 1\nmap_d leaf.tga\nnewmtl mask\nKd 1 1 1\nmap_d grey.pfm\n"
+                                      "newmtl plain\nKd 1 1 1\n",
+                             {"leaf", "mask", "plain"}, true);
+  const luz::SceneView v = s.view();
+  auto opacity = [&](int m, float u) {
+    return luz::luminance(v.textures.eval(uint32_t(s.materials[size_t(m)].opacity_texture), {u, 0.5f}));
+  };
+  ASSERT_GE(s.materials[0].opacity_texture, 0);
+  EXPECT_FLOAT_EQ(opacity(0, 0.25f), 1.f);
+  EXPECT_FLOAT_EQ(opacity(0, 0.75f), 0.f);
+  ASSERT_GE(s.materials[1].opacity_texture, 0);
+  EXPECT_FLOAT_EQ(opacity(1, 0.25f), 0.25f);
+  EXPECT_FLOAT_EQ(opacity(1, 0.75f), 1.f);
+}
+
 // Map statements as the MTL specification reads them: options before the
 // file name, -o and -s with one to three numbers (tinyobjloader took the
 // file name for a missing third number), placing the map (Luz's v is

@@ -44,8 +44,8 @@ namespace {
 // warning: the models conserve energy. map_Kd and map_Ks drive Kd and Ks
 // (in place of the constants, as most renderers read them), map_Ns
 // multiplies Ns (as the MTL specification says), map_bump is a bump map
-// (-bm its scale), d times map_d the opacity; maps are placed by their -s
-// and -o. Texture maps on faces without texture coordinates are dropped
+// (-bm its scale), d times map_d (its alpha, or else its luminance) the
+// opacity; maps are placed by their -s and -o. Texture maps on faces without texture coordinates are dropped
 // with a warning.
 MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjMaterial& m, bool has_uvs) {
   for (int k = 0; k < 3; ++k) {
@@ -139,9 +139,17 @@ MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjM
     d.bump_map = image(m.map_bump, false, 3);
     d.bump_scale = m.bump_multiplier;
   }
-  // map_d times d, as the MTL specification says.
+  // map_d times d, as the MTL specification says: an 8-bit image's alpha
+  // where it has transparent texels (an RGBA map, as Blender's importer
+  // reads it), else its luminance (a grey mask).
   if (!m.map_d.empty()) {
-    const int32_t alpha = image(m.map_d, false, 4);
+    int32_t alpha = image(m.map_d, false, 4);
+    Texture a = builder.scene().textures[size_t(alpha)];
+    if (a.type == TextureType::Bitmap && !a.bitmap.is_float) {
+      a.bitmap.channel = TextureChannel::A;
+      const int32_t from_alpha = builder.add_texture(at, a);
+      if (builder.texture_stats(from_alpha).min.x < 1.f) alpha = from_alpha;
+    }
     d.opacity_texture = m.d < 1.f ? builder.add_scaled_texture(at, alpha, Color{m.d, m.d, m.d}) : alpha;
   }
   return d;
