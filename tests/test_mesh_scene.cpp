@@ -145,7 +145,8 @@ TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {
   EXPECT_NE(all.find("material 'Material': Kd + Ks reaches 1.3"), std::string::npos) << all;
 }
 
-// A missing mtllib, an unknown usemtl and one before its mtllib are warnings at their lines.
+// A missing mtllib, an unknown usemtl and one before its mtllib are warnings
+// at their lines; an mtllib line naming two files reads both.
 TEST_F(MeshSceneFiles, MissingMaterialsAreWarnings) {
   const std::string obj = write("w.obj", "mtllib none.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl ghost\nf 1 2 3\n");
   luz::Scene s = luz::load_scene(obj);
@@ -153,6 +154,15 @@ TEST_F(MeshSceneFiles, MissingMaterialsAreWarnings) {
   EXPECT_NE(s.warnings[0].find("w.obj:1: warning: mtllib 'none.mtl' not found"), std::string::npos) << s.warnings[0];
   EXPECT_NE(s.warnings[1].find("w.obj:5: warning: usemtl 'ghost': no such material"), std::string::npos)
       << s.warnings[1];
+  // Two MTL files on one mtllib line: both read (tinyobjloader alone reads the first).
+  write("one.mtl", "newmtl a\nKd 0.1 0.1 0.1\n");
+  write("two.mtl", "newmtl b\nKd 0.2 0.2 0.2\n");
+  luz::Scene both = luz::load_scene(write("both.obj", "mtllib one.mtl two.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl a\nf 1 2 3\n"
+                                                      "usemtl b\nf 1 3 2\n"));
+  ASSERT_GE(both.materials.size(), 2u);
+  EXPECT_FLOAT_EQ(both.materials[0].bsdf.diffuse.reflectance.x, 0.1f);
+  EXPECT_FLOAT_EQ(both.materials[1].bsdf.diffuse.reflectance.x, 0.2f);
+  EXPECT_FALSE(luz_test::has_warning(both, "no such material"));
   write("late.mtl", "newmtl red\nKd 1 0 0\n");
   luz::Scene late = luz::load_scene(write("late.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\nmtllib late.mtl\n"));
   EXPECT_TRUE(luz_test::has_warning(late, "late.obj:4: warning: usemtl 'red' comes before any mtllib"));

@@ -254,7 +254,8 @@ MtlMap parse_map(const std::vector<std::string>& t, const std::string& mtl, int 
 // unparsable or non-finite colour or exponent as 0 without a word.
 // Missing files are warnings (the faces get the default material).
 void check_mtl_files(const std::string& obj_path, const std::string& obj_text, std::vector<ObjWarning>& warnings, MtlMaps& maps,
-                     MtlGreys& greys) {
+                     MtlGreys& greys, std::string& all_mtl) {
+  std::vector<std::filesystem::path> read;  // each file once
   int obj_line = 0;
   for (size_t pos = 0; pos < obj_text.size();) {
     std::string line = next_line(obj_text, pos);
@@ -276,6 +277,11 @@ void check_mtl_files(const std::string& obj_path, const std::string& obj_text, s
       std::stringstream ss;
       ss << in.rdbuf();
       const std::string mtl_text = ss.str();
+      bool again = false;
+      for (const std::filesystem::path& r : read) again = again || std::filesystem::equivalent(r, mtl, ec);
+      if (again) continue;
+      read.push_back(mtl);
+      all_mtl += mtl_text + "\n";
       int n = 0;
       std::string material;
       for (size_t mpos = 0; mpos < mtl_text.size();) {
@@ -452,13 +458,16 @@ std::shared_ptr<ObjFile> parse_obj(const std::string& path, bool with_materials)
   const std::string& text = file->text;
   ObjChecker checker(path, text);
   checker.check();
-  if (with_materials) check_mtl_files(path, text, file->warnings, file->maps, file->greys);
+  // Every MTL file the OBJ names, in order: tinyobjloader reads only the
+  // first it finds of an mtllib line naming several.
+  std::string all_mtl;
+  if (with_materials) check_mtl_files(path, text, file->warnings, file->maps, file->greys, all_mtl);
   tinyobj::ObjReaderConfig config;
   config.triangulate = false;  // triangulate() below
   config.vertex_color = false;
   tinyobj::ObjReader& reader = file->reader;
-  // Without materials, from the text read already (an empty MTL for any mtllib).
-  if (!(with_materials ? reader.ParseFromFile(path, config) : reader.ParseFromString(text, "", config))) {
+  // From the text read already; materials from all_mtl (empty without materials), read at the first mtllib.
+  if (!reader.ParseFromString(text, all_mtl, config)) {
     std::string e = reader.Error();
     while (!e.empty() && (e.back() == '\n' || e.back() == '\r')) e.pop_back();
     for (char& c : e)
