@@ -556,9 +556,8 @@ class GltfLoader {
   // Each vertex's matrix: its joints' matrices weighted (JOINTS_n,
   // WEIGHTS_n), the weights scaled to sum to 1.
   std::vector<Matrix4> skin_matrices(const tinygltf::Primitive& p, const Deform& d, size_t n, const std::string& where) {
-    std::vector<Matrix4> out(n);
+    std::vector<Matrix4> out(n, Matrix4{{}});  // zero matrices: sums of weighted joints
     std::vector<double> total(n, 0.0);
-    for (Matrix4& m : out) m.m[3][3] = 0.0, m.m[0][0] = m.m[1][1] = m.m[2][2] = 0.0;
     bool any = false;
     for (int set = 0; p.attributes.count("JOINTS_" + std::to_string(set)); ++set) {
       const std::string jn = "JOINTS_" + std::to_string(set), wn = "WEIGHTS_" + std::to_string(set);

@@ -586,15 +586,15 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoot
   };
   std::unordered_map<std::pair<unsigned, int>, Vec3, PairHash> group_normal;  // (group, position) -> sum of area-weighted normals
   for (const ObjFile::Triangle& t : file.triangles) {
-      const unsigned g = group_of(t);
-      if (g == 0) continue;
-      const tinyobj::index_t* c = t.corner;
-      if (c[0].normal_index >= 0 && c[1].normal_index >= 0 && c[2].normal_index >= 0) continue;
-      const Vec3 n = cross(position(c[1].vertex_index) - position(c[0].vertex_index),
-                           position(c[2].vertex_index) - position(c[0].vertex_index));
-      if (!is_finite(n)) continue;
-      for (int j = 0; j < 3; ++j) group_normal[{g, c[j].vertex_index}] += n;
-    }
+    const unsigned g = group_of(t);
+    if (g == 0) continue;
+    const tinyobj::index_t* c = t.corner;
+    if (c[0].normal_index >= 0 && c[1].normal_index >= 0 && c[2].normal_index >= 0) continue;
+    const Vec3 n = cross(position(c[1].vertex_index) - position(c[0].vertex_index),
+                         position(c[2].vertex_index) - position(c[0].vertex_index));
+    if (!is_finite(n)) continue;
+    for (int j = 0; j < 3; ++j) group_normal[{g, c[j].vertex_index}] += n;
+  }
   const bool any_normals = !attrib.normals.empty() || !group_normal.empty();
   size_t flat_faces = 0, bare_faces = 0;
 
@@ -610,51 +610,54 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoot
   std::unordered_map<std::tuple<long long, long long, long long>, uint32_t, TripleHash> remap;
   remap.reserve(attrib.vertices.size() / 3);
   long long face_number = 0;
-  {
-    for (const ObjFile::Triangle& tri : file.triangles) {
-      ++face_number;
-      const tinyobj::index_t* corner = tri.corner;
-      const unsigned group = group_of(tri);
-      bool flat = false, bare = false;
-      Vec3 face_normal{0.f, 0.f, 1.f};
-      if (any_normals && (corner[0].normal_index < 0 || corner[1].normal_index < 0 || corner[2].normal_index < 0)) {
-        const Vec3 n = cross(position(corner[1].vertex_index) - position(corner[0].vertex_index),
-                             position(corner[2].vertex_index) - position(corner[0].vertex_index));
-        if (length(n) > 0.f && is_finite(n)) face_normal = normalize(n);
-      }
-      for (int j = 0; j < 3; ++j) {
-        const tinyobj::index_t& idx = corner[j];
-        const bool has_normal = any_normals && idx.normal_index >= 0, has_uv = any_texcoords && idx.texcoord_index >= 0;
-        const bool smooth = any_normals && !has_normal && group != 0;
-        flat |= any_normals && !has_normal && !smooth && !attrib.normals.empty();
-        bare |= any_texcoords && !has_uv;
-        // Normal key: the file's index; a smoothing group's -(2^40 + g); a flat face's own -2 - face.
-        std::tuple<long long, long long, long long> key{
-            idx.vertex_index,
-            has_normal ? idx.normal_index : smooth ? -(1ll << 40) - group : any_normals ? -2 - face_number : -1,
-            has_uv ? idx.texcoord_index : -1};
-        auto it = remap.find(key);
-        if (it == remap.end()) {
-          it = remap.emplace(key, uint32_t(mesh.positions.size())).first;
-          const float* v = &attrib.vertices[3 * size_t(idx.vertex_index)];
-          mesh.positions.push_back({v[0], v[1], v[2]});
-          if (any_normals) {
-            const float* n = has_normal ? &attrib.normals[3 * size_t(idx.normal_index)] : nullptr;
-            Vec3 sm = smooth ? group_normal[{group, idx.vertex_index}] : Vec3{};
-            if (smooth) sm = length(sm) > 0.f ? normalize(sm) : face_normal;
-            mesh.normals.push_back(n ? Vec3{n[0], n[1], n[2]} : smooth ? sm : face_normal);
-          }
-          if (any_texcoords) {
-            const float* t = has_uv ? &attrib.texcoords[2 * size_t(idx.texcoord_index)] : nullptr;
-            mesh.texcoords.push_back(t ? Vec2{t[0], 1.f - t[1]} : Vec2{0.f, 1.f});  // vt (0, 0), v flipped
-          }
-        }
-        mesh.indices.push_back(it->second);
-      }
-      flat_faces += flat;
-      bare_faces += bare;
-      mesh.face_material.push_back(with_materials ? tri.material : -1);
+  for (const ObjFile::Triangle& tri : file.triangles) {
+    ++face_number;
+    const tinyobj::index_t* corner = tri.corner;
+    const unsigned group = group_of(tri);
+    bool flat = false, bare = false;
+    Vec3 face_normal{0.f, 0.f, 1.f};
+    if (any_normals && (corner[0].normal_index < 0 || corner[1].normal_index < 0 || corner[2].normal_index < 0)) {
+      const Vec3 n = cross(position(corner[1].vertex_index) - position(corner[0].vertex_index),
+                           position(corner[2].vertex_index) - position(corner[0].vertex_index));
+      if (length(n) > 0.f && is_finite(n)) face_normal = normalize(n);
     }
+    for (int j = 0; j < 3; ++j) {
+      const tinyobj::index_t& idx = corner[j];
+      const bool has_normal = any_normals && idx.normal_index >= 0, has_uv = any_texcoords && idx.texcoord_index >= 0;
+      const bool smooth = any_normals && !has_normal && group != 0;
+      flat |= any_normals && !has_normal && !smooth && !attrib.normals.empty();
+      bare |= any_texcoords && !has_uv;
+      // Normal key: the file's index; a smoothing group's -(2^40 + g); a flat face's own -2 - face.
+      std::tuple<long long, long long, long long> key{
+          idx.vertex_index,
+          has_normal ? idx.normal_index : smooth ? -(1ll << 40) - group : any_normals ? -2 - face_number : -1,
+          has_uv ? idx.texcoord_index : -1};
+      auto it = remap.find(key);
+      if (it == remap.end()) {
+        it = remap.emplace(key, uint32_t(mesh.positions.size())).first;
+        const float* v = &attrib.vertices[3 * size_t(idx.vertex_index)];
+        mesh.positions.push_back({v[0], v[1], v[2]});
+        if (any_normals) {
+          Vec3 normal = face_normal;
+          if (has_normal) {
+            const float* n = &attrib.normals[3 * size_t(idx.normal_index)];
+            normal = {n[0], n[1], n[2]};
+          } else if (smooth) {
+            auto sum = group_normal.find({group, idx.vertex_index});  // none where every face there is degenerate
+            if (sum != group_normal.end() && length(sum->second) > 0.f) normal = normalize(sum->second);
+          }
+          mesh.normals.push_back(normal);
+        }
+        if (any_texcoords) {
+          const float* t = has_uv ? &attrib.texcoords[2 * size_t(idx.texcoord_index)] : nullptr;
+          mesh.texcoords.push_back(t ? Vec2{t[0], 1.f - t[1]} : Vec2{0.f, 1.f});  // vt (0, 0), v flipped
+        }
+      }
+      mesh.indices.push_back(it->second);
+    }
+    flat_faces += flat;
+    bare_faces += bare;
+    mesh.face_material.push_back(with_materials ? tri.material : -1);
   }
   if (flat_faces > 0)
     mesh.warnings.push_back({path, 0, std::to_string(flat_faces) + " triangles lack normals (vn) where others have them: shaded flat"});

@@ -14,9 +14,10 @@ namespace luz {
 // the blend's second, the two-sided back) or the blend weight.
 enum class BsdfPart : uint8_t { Front, Second, Back, BlendWeight };
 
-// What a float parameter takes of its texture's luminance l: l, or sqrt(l)
-// (pbrt-v4's remaproughness: alpha = sqrt(roughness) at each lookup).
-enum class TextureMap : uint8_t { Identity, Sqrt, Clamp01 };  // Clamp01: pbrt-v4's reflectances
+// What a parameter takes of its texture's value v (a float one: of its
+// luminance): v; sqrt(v) (pbrt-v4's remaproughness: alpha = sqrt(roughness)
+// at each lookup); or v clamped to [0, 1] (pbrt-v4's reflectances).
+enum class TextureMap : uint8_t { Identity, Sqrt, Clamp01 };
 
 // Texture `texture` drives parameter `param` of `part`. A colour parameter
 // takes the texture's RGB value, a float one its luminance (Mitsuba's eval_1)

@@ -568,9 +568,11 @@ class PbrtScene final : public ParserTarget {
       const double cone = ps.get_float("coneangle", 30), delta = ps.get_float("conedeltaangle", 5);
       if (!(cone > 0 && cone <= 180)) error(at, "coneangle must be in (0, 180] degrees");
       if (!(delta >= 0 && delta <= cone)) error(at, "conedeltaangle must be in [0, coneangle]");
-      // pbrt's smoothstep falloff integrated over the sphere.
-      const double cos_end = std::cos(cone * M_PI / 180), cos_start = std::cos((cone - delta) * M_PI / 180);
-      l.intensity = light_color(at, ps, "I") * scale_for("power", 2 * M_PI * ((1 - cos_start) + (cos_start - cos_end) / 2));
+      // pbrt-v4's falloff: a smoothstep in cos θ from cos(coneangle) to
+      // cos(coneangle - conedeltaangle); `power` over the power of intensity 1.
+      l.set_cone(cone * M_PI / 180, (cone - delta) * M_PI / 180, SpotFalloff::SmoothstepCos);
+      l.intensity = {1.f, 1.f, 1.f};
+      l.intensity = light_color(at, ps, "I") * scale_for("power", l.phi(0.f));
       if (!(length(to - from) > 0.f)) error(at, "the spotlight's from and to coincide");
       const Vec3 dir = normalize(to - from);
       const Frame f = Frame::from_normal(dir);
@@ -584,8 +586,6 @@ class PbrtScene final : public ParserTarget {
       const Matrix4 to_world = m * local;
       l.position = to_world.point({0, 0, 0});
       if (!inverse_rows(to_world, l.inv_x, l.inv_y, l.inv_z)) error(at, "the spotlight's transform is singular");
-      // pbrt-v4's falloff: a smoothstep in cos θ from cos(coneangle) to cos(coneangle - conedeltaangle).
-      l.set_cone(cone * M_PI / 180, (cone - delta) * M_PI / 180, SpotFalloff::SmoothstepCos);
       builder_.add_light(at, l);
     } else if (name == "distant") {
       DirectionalLight l;
