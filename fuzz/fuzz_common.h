@@ -5,7 +5,7 @@
 // line reports as "file:line: problem"; anything else escapes to libFuzzer
 // as a finding (as do crashes, sanitizer reports, timeouts and memory).
 // The folder also holds small files scenes may name (fuzz/assets: mesh.obj,
-// mesh.ply, mesh.serialized, texture.png, env.exr, env.pfm), so that a scene
+// mesh.ply, colors.ply, mesh.serialized, texture.png, env.exr, env.pfm), so that a scene
 // reads on past its meshes and textures. LUZ_FUZZ_VERBOSE=1 prints each
 // input's InputError (to see how far a seed reads).
 #pragma once

@@ -4,7 +4,8 @@
 // against the JPEG read on its own); the Box's red metal under a constant
 // environment gives the directional albedo of the specification's BRDF
 // (quadrature); primitives' modes, index types, transforms, materials and
-// lights from small files written here; malformed and truncated files give
+// lights from small files written here; COLOR_0 times the base colour;
+// malformed and truncated files give
 // one InputError naming the file.
 #include <gtest/gtest.h>
 
@@ -414,7 +415,9 @@ TEST_F(GltfFiles, QuantizedPositionsAndIgnoredExtensions) {
   std::string all;
   for (const std::string& w : s.warnings) all += w + "\n";
   EXPECT_NE(all.find("extension KHR_materials_sheen is not supported: rendered without it"), std::string::npos) << all;
-  EXPECT_NE(all.find("COLOR_0 is ignored"), std::string::npos) << all;
+  ASSERT_EQ(s.colors.size(), 4u);  // COLOR_0, VEC4 floats
+  EXPECT_EQ(s.colors[2].y, 0.5f);
+  EXPECT_EQ(all.find("COLOR_0"), std::string::npos) << all;  // opaque: its alpha does not matter
   luz_test::expect_load_refused(gltf("nq.gltf", bin, json("")), "nq.gltf",
                                 "POSITION must be VEC3 of floats (other types need KHR_mesh_quantization)");
 }
@@ -654,6 +657,72 @@ TEST_F(GltfFiles, NormalTexturesFollowTheImagesUp) {
 
 // Texture channels and scales (the glTF factors): one bitmap read as RGB,
 // as G and as A (linear), scaled; and the MASK cutoff on a texture's alpha.
+// COLOR_0 multiplies the base colour (§3.7.2.1: "vertex colour linear
+// multiplier"): factor × COLOR_0, and factor × texture × COLOR_0 with a
+// baseColorTexture; a primitive without COLOR_0 sharing the material gets the
+// factor alone. Normalised unsigned bytes (VEC4) on one quad drawn three
+// times; at a hit the material's base colour must be the product computed
+// here from the file's bytes, interpolated with the hit's barycentrics. The
+// alpha of COLOR_0 is ignored with a warning where the material blends.
+TEST_F(GltfFiles, VertexColoursMultiplyTheBaseColour) {
+  Image img;
+  img.width = img.height = 2;
+  img.rgb = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+  write_image((dir / "tex.png").string(), img);
+  const std::vector<uint8_t> rgba = {255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 255, 51, 102, 204, 255};
+  const std::vector<float> uv = {0, 0, 1, 0, 0, 1, 1, 1};
+  const std::string bin = quad_bin() + bytes(rgba) + bytes(uv);
+  const std::string doc =
+      views(",{\"buffer\":0,\"byteOffset\":60,\"byteLength\":16},{\"buffer\":0,\"byteOffset\":76,\"byteLength\":32}",
+            ",{\"bufferView\":3,\"componentType\":5121,\"normalized\":true,\"count\":4,\"type\":\"VEC4\"},"
+            "{\"bufferView\":4,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"}") +
+      ",\"meshes\":[{\"primitives\":["
+      "{\"attributes\":{\"POSITION\":0,\"COLOR_0\":3},\"indices\":1,\"mode\":5,\"material\":0},"
+      "{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":5,\"material\":0},"
+      "{\"attributes\":{\"POSITION\":0,\"COLOR_0\":3,\"TEXCOORD_0\":4},\"indices\":1,\"mode\":5,\"material\":1}]}],"
+      "\"nodes\":[{\"mesh\":0}],\"images\":[{\"uri\":\"tex.png\"}],\"samplers\":[{\"magFilter\":9728}],"
+      "\"textures\":[{\"source\":0,\"sampler\":0}],\"materials\":["
+      "{\"alphaMode\":\"BLEND\",\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,1,0.25,1]}},"
+      "{\"pbrMetallicRoughness\":{\"baseColorFactor\":[1,0.5,1,1],\"baseColorTexture\":{\"index\":0}}}]";
+  Scene s = load_scene(gltf("colors.gltf", bin, doc));
+  ASSERT_EQ(s.num_triangles(), 6u);
+  ASSERT_EQ(s.colors.size(), s.positions.size());
+  EXPECT_TRUE(luz_test::has_warning(s, "COLOR_0's alpha is ignored")) << s.warnings.size();
+  const SceneView v = s.view();
+  const double factor[2][3] = {{0.5, 1, 0.25}, {1, 0.5, 1}};
+  for (uint32_t t = 0; t < 6; ++t) {
+    const uint32_t prim = t / 2;  // each primitive's strip gives two triangles, in order
+    const uint32_t* idx = s.indices.data() + 3 * t;
+    ASSERT_EQ(idx[0] / 4, prim);
+    Hit hit;
+    hit.prim = t;
+    hit.u = 0.2f, hit.v = 0.5f;
+    const double w[3] = {0.3, 0.2, 0.5};
+    double want[3] = {0, 0, 0}, u = 0, vv = 0;
+    for (int c = 0; c < 3; ++c) {
+      const uint32_t j = idx[c] % 4;  // the vertex in the file
+      for (int k = 0; k < 3; ++k) want[k] += w[c] * (prim == 1 ? 1.0 : rgba[4 * j + size_t(k)] / 255.0);
+      u += w[c] * uv[2 * j], vv += w[c] * uv[2 * j + 1];
+    }
+    const Vec2 huv = v.hit_uv(hit, {});
+    const Bsdf b = v.materials.bsdf(s.tri_material[t], v.textures, huv, v.hit_color(hit));
+    const int texel = int(std::floor(vv * 2)) * 2 + int(std::floor(u * 2));
+    for (int k = 0; k < 3; ++k) {
+      const double tex = prim == 2 ? img.rgb[3 * size_t(texel) + size_t(k)] : 1.0;
+      EXPECT_NEAR(b.gltf_pbr.base_color[k], factor[prim == 2][k] * tex * want[k], 1e-5) << t << " " << k;
+    }
+  }
+  EXPECT_NE(s.tri_material[0], s.tri_material[2]) << "the material without COLOR_0 is its own";
+  EXPECT_EQ(s.materials[s.tri_material[2]].num_bindings, 0u);
+  luz_test::expect_load_refused(
+      gltf("badcolor.gltf", bin,
+           views(",{\"buffer\":0,\"byteOffset\":60,\"byteLength\":16}",
+                 ",{\"bufferView\":3,\"componentType\":5121,\"count\":4,\"type\":\"VEC4\"}") +
+               ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"COLOR_0\":3},\"indices\":1}]}],"
+               "\"nodes\":[{\"mesh\":0}]"),
+      "badcolor.gltf", "COLOR_0 must be VEC3 or VEC4 of floats or normalised unsigned bytes or shorts");
+}
+
 TEST(GltfTextures, ChannelScaleAndCutoff) {
   Scene s;
   BitmapTexture b;

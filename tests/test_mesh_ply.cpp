@@ -107,12 +107,16 @@ std::vector<PlyElement> test_mesh() {
                      {"double", "nz"},
                      {"int", "ids", "uint8"},
                      {"float", "texture_u"},
-                     {"float", "texture_v"}},
+                     {"float", "texture_v"},
+                     {"uchar", "red"},
+                     {"ushort", "green"},
+                     {"float", "blue"}},
                     {}};
   for (int i = 0; i < 6; ++i) {
     double a = 0.1 * i + 1e-3;
     vertex.rows.push_back({{a}, {-3.7 * a + 1e10 * (i == 5)}, {(double)(i * 1000 - 2000)}, {(double)(200 + i)},
-                           {std::sin(a)}, {std::cos(a)}, {-a}, std::vector<double>(i % 3, 7.0), {a * a}, {1 - a}});
+                           {std::sin(a)}, {std::cos(a)}, {-a}, std::vector<double>(i % 3, 7.0), {a * a}, {1 - a},
+                           {10.0 * i}, {1000.0 * i}, {0.1 * i}});
   }
   PlyElement face{"face",
                   {{"uint16", "intensity"}, {"uint", "vertex_indices", "ushort"}, {"int8", "face_indices"}},
@@ -126,6 +130,7 @@ void expect_equal_meshes(const PlyMesh& a, const PlyMesh& b) {
   EXPECT_EQ(bytes(a.positions), bytes(b.positions));
   EXPECT_EQ(bytes(a.normals), bytes(b.normals));
   EXPECT_EQ(bytes(a.uvs), bytes(b.uvs));
+  EXPECT_EQ(bytes(a.colors), bytes(b.colors));
   EXPECT_EQ(a.indices, b.indices);
   EXPECT_EQ(a.face_indices, b.face_indices);
   EXPECT_EQ(a.face_first_triangle, b.face_first_triangle);
@@ -153,6 +158,7 @@ TEST(Ply, ThreeEncodingsGiveTheValuesWritten) {
   ASSERT_EQ(asc.positions.size(), 6u);
   ASSERT_EQ(asc.normals.size(), 6u);
   ASSERT_EQ(asc.uvs.size(), 6u);
+  ASSERT_EQ(asc.colors.size(), 6u);
   for (size_t i = 0; i < 6; ++i) {
     const auto& r = v.rows[i];
     EXPECT_EQ(asc.positions[i].x, (float)r[0][0]);
@@ -163,6 +169,12 @@ TEST(Ply, ThreeEncodingsGiveTheValuesWritten) {
     EXPECT_EQ(asc.normals[i].z, (float)r[6][0]);
     EXPECT_EQ(asc.uvs[i].x, (float)r[8][0]);
     EXPECT_EQ(asc.uvs[i].y, (float)r[9][0]);
+    // Colours: integer channels over their type's maximum, sRGB-decoded
+    // (Mitsuba 3's reading); a float channel as written.
+    auto srgb = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
+    EXPECT_NEAR(asc.colors[i].x, srgb(r[10][0] / 255.0), 1e-7);
+    EXPECT_NEAR(asc.colors[i].y, srgb(r[11][0] / 65535.0), 1e-7);
+    EXPECT_EQ(asc.colors[i].z, (float)r[12][0]);
   }
   // Fans: (0 1 2), (1 2 3 4) -> 2 triangles, (5 4 3 2 1) -> 3.
   std::vector<uint32_t> tris = {0, 1, 2, 1, 2, 3, 1, 3, 4, 5, 4, 3, 5, 3, 2, 5, 2, 1};

@@ -95,6 +95,32 @@ namespace {
 // the largest values, each part divided by its weight), a mirror alone
 // without Kd, diffuse without Ks; illum 7 and 6 glass; Blender's default
 // Kd 0.8 + Ks 0.5 scaled to 1 with a warning.
+// A PLY file with vertex colours rendered on its own: its diffuse
+// reflectance is the colour interpolated at the hit (a float colour as
+// written); without colours the default grey.
+TEST_F(MeshSceneFiles, PlyVertexColoursAreItsReflectance) {
+  const std::string p = write("c.ply",
+                              "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                              "property float z\nproperty float red\nproperty float green\nproperty float blue\n"
+                              "element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+                              "0 0 0 1 0 0\n1 0 0 0 1 0\n0 1 0 0.2 0.4 0.6\n3 0 1 2\n");
+  luz::Scene s = luz::load_scene(p);
+  ASSERT_EQ(s.colors.size(), 3u);
+  const luz::SceneView v = s.view();
+  luz::Hit hit;
+  hit.prim = 0;
+  hit.u = 0.25f, hit.v = 0.5f;  // weights 0.25, 0.25, 0.5 of vertices 0, 1, 2
+  const luz::Bsdf b = v.materials.bsdf(s.tri_material[0], v.textures, {}, v.hit_color(hit));
+  EXPECT_NEAR(b.diffuse.reflectance.x, 0.25f + 0.1f, 1e-6f);
+  EXPECT_NEAR(b.diffuse.reflectance.y, 0.25f + 0.2f, 1e-6f);
+  EXPECT_NEAR(b.diffuse.reflectance.z, 0.3f, 1e-6f);
+  luz::Scene plain = luz::load_scene(write("p.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                                          "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                                          "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"));
+  EXPECT_TRUE(plain.colors.empty());
+  EXPECT_EQ(plain.materials[plain.tri_material[0]].bsdf.diffuse.reflectance.y, 0.5f);
+}
+
 TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {
   luz::Scene s = three_faces("m", "newmtl mirror\nKd 0.01 0.01 0.01\nKs 0.9 0.8 0.7\nillum 5\n"
                                   "newmtl glass\nKs 0.3 0.3 0.3\nTf 0.5 0.6 0.7\nNi 1.7\nillum 7\n"

@@ -47,10 +47,12 @@ void put_double(std::vector<uint8_t>& b, double d) {
   std::memcpy(&u, &d, 8);
   put(b, u);
 }
-// One shape: header + zlib stream. `tri` a triangle; uvs when `with_uv`.
-std::vector<uint8_t> shape_bytes(uint16_t version, bool dbl, bool with_uv, float shift, uint64_t claimed_vertices = 3) {
+// One shape: header + zlib stream. `tri` a triangle; uvs when `with_uv`,
+// vertex colours (0.1, 0.2, 0.3) · (k + 1) when `with_color`.
+std::vector<uint8_t> shape_bytes(uint16_t version, bool dbl, bool with_uv, float shift, uint64_t claimed_vertices = 3,
+                                 bool with_color = false) {
   std::vector<uint8_t> raw;
-  put(raw, uint32_t((dbl ? 0x2000 : 0x1000) | (with_uv ? 0x0002 : 0)));
+  put(raw, uint32_t((dbl ? 0x2000 : 0x1000) | (with_uv ? 0x0002 : 0) | (with_color ? 0x0008 : 0)));
   if (version == 4)
     for (char c : std::string("tri")) raw.push_back(uint8_t(c));
   if (version == 4) raw.push_back(0);
@@ -60,6 +62,9 @@ std::vector<uint8_t> shape_bytes(uint16_t version, bool dbl, bool with_uv, float
   for (float v : p) dbl ? put_double(raw, v) : put_float(raw, v);
   if (with_uv)
     for (float v : {0.f, 0.f, 1.f, 0.f, 0.f, 1.f}) dbl ? put_double(raw, v) : put_float(raw, v);
+  if (with_color)
+    for (int k = 0; k < 3; ++k)
+      for (float c : {0.1f, 0.2f, 0.3f}) dbl ? put_double(raw, c * float(k + 1)) : put_float(raw, c * float(k + 1));
   for (uint32_t i : {0u, 1u, 2u}) put(raw, i);
   uLongf len = compressBound(uLong(raw.size()));
   std::vector<uint8_t> z(len);
@@ -205,6 +210,36 @@ TEST_F(MitsubaFormats, SerializedAndPlyShapes) {
                "m.serialized: byte", "shape_index 5 is out of range");
   write("bad.ply", "ply\nformat ascii 1.0\nelement vertex 1\n");
   expect_error(scene("<shape type=\"ply\"><string name=\"filename\" value=\"bad.ply\"/></shape>\n"), "bad.ply", "");
+}
+
+// A serialized file's vertex colours are Mitsuba's vertex_color attribute;
+// in a shapegroup placed twice they stay with the instanced object's
+// vertices, and an instance's hit reads its object's colours.
+TEST_F(MitsubaFormats, SerializedVertexColoursAlsoInInstances) {
+  for (bool dbl : {false, true}) {
+    const std::vector<uint8_t> f = shape_bytes(4, dbl, false, 0.f, 3, true);
+    std::ofstream(dir / "c.serialized", std::ios::binary).write(reinterpret_cast<const char*>(f.data()), std::streamsize(f.size()));
+    const std::string shape = "<shape type=\"serialized\"><string name=\"filename\" value=\"c.serialized\"/>"
+                              "<bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"mesh_attribute\">"
+                              "<string name=\"name\" value=\"vertex_color\"/></texture></bsdf></shape>";
+    luz::Scene s = load(scene(shape + "\n"));
+    ASSERT_EQ(s.colors.size(), 3u);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.colors[size_t(k)].z, 0.3 * (k + 1), 1e-6) << dbl;
+    luz::Scene inst = load(scene("<shape type=\"shapegroup\" id=\"g\">" + shape + "</shape>\n"
+                                 "<shape type=\"instance\"><ref id=\"g\"/></shape>\n"
+                                 "<shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\"><translate y=\"3\"/></transform></shape>\n"
+                                 "<shape type=\"rectangle\"/>\n"));
+    ASSERT_EQ(inst.instances.size(), 2u);
+    ASSERT_EQ(inst.colors.size(), inst.positions.size());
+    const luz::SceneView v = inst.view();
+    luz::Hit hit;
+    hit.prim = inst.objects[0].first_triangle;
+    hit.inst = 1;
+    hit.u = 0.f, hit.v = 1.f;  // the object's third vertex
+    EXPECT_NEAR(v.hit_color(hit).y, 0.6f, 1e-6f) << dbl;
+    hit.prim = 0, hit.inst = luz::kNoInstance;  // the rectangle: white
+    EXPECT_EQ(v.hit_color(hit).x, 1.f);
+  }
 }
 
 TEST_F(MitsubaFormats, DiskAndCylinderKeepMitsubasAreas) {

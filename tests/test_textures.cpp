@@ -12,6 +12,11 @@
 //   pixel shows the texel its footprint covers (found by intersecting the
 //   pixel's centre ray with the plane here, not by Luz's uv code), within a
 //   bound from the pixel's own variance; the upside-down texture must fail;
+// - vertex colours (mesh_attribute vertex_color, from PLY files): alone and
+//   in a product; a quad whose corner colours are an affine function of the
+//   position shows that function under a uniform environment (mirrored, it
+//   fails); integer channels normalised and sRGB-decoded; meshes with and
+//   without colours mixed; every bad use one error;
 // - Mitsuba 0.5 names (camelCase, ldrfilm) load to the same scene as their
 //   Mitsuba 3 spelling, and a bad name is a file:line error;
 // - the Wooden Staircase (../shared/scenes/staircase, skipped without it):
@@ -21,6 +26,8 @@
 #include <gtest/gtest.h>
 #include <stdlib.h>
 
+#include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -36,6 +43,7 @@
 #include "luz/io/error.h"
 #include "luz/io/image.h"
 #include "luz/io/load.h"
+#include "scene_helpers.h"
 #include "stat_helpers.h"
 
 namespace fs = std::filesystem;
@@ -294,6 +302,45 @@ TEST_F(ImageFiles, PfmOfEveryKind) {
   expect_error("mesh.obj", "v 0 0 0\n", "supported: .exr, .hdr, .pfm, .png");
 }
 
+namespace {
+
+// A 16×16 render of the plane z = 0 seen square-on: each pixel's mean
+// against expected(px, py, channel) at the point (px, py) its centre ray
+// meets the plane, within z · its standard error (Šidák over all pixels and
+// channels, family level 1e-3); `other` (the image mirrored) counts the
+// values that would fail.
+struct PlaneCheck {
+  int failures = 0, other_failures = 0;
+  double worst = 0, threshold = 0;
+};
+template <class F, class G>
+PlaneCheck check_plane_pixels(const Scene& s, F expected, G other) {
+  CpuRenderOptions opt;
+  opt.threads = 2;
+  RenderStats stats;
+  Film film = render_cpu(s, opt, stats);
+  EXPECT_EQ(stats.discarded, 0u);
+  std::vector<double> mean = luz_test::pixel_means(film), var = film.variance_of_mean();
+  PlaneCheck r;
+  r.threshold = luz_test::sidak_z(1e-3, 16.0 * 16 * 3);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) {
+      const Ray ray = s.camera.generate_ray(x + 0.5f, y + 0.5f);
+      const double t = -ray.o.z / ray.d.z, px = ray.o.x + t * ray.d.x, py = ray.o.y + t * ray.d.y;
+      for (int c = 0; c < 3; ++c) {
+        const size_t k = 3 * (size_t(y) * 16 + size_t(x)) + size_t(c);
+        const double sigma = std::sqrt(var[k]) + luz_test::rounding_floor(mean[k]);
+        const double z = std::fabs(mean[k] - expected(px, py, c)) / sigma;
+        r.worst = std::max(r.worst, z);
+        r.failures += z > r.threshold;
+        r.other_failures += std::fabs(mean[k] - other(px, py, c)) / sigma > r.threshold;
+      }
+    }
+  return r;
+}
+
+}  // namespace
+
 using TextureUv = TempDirTest;
 
 // A quad of two triangles whose vt are the affine map uv = (0.2 + 0.5 x,
@@ -537,37 +584,211 @@ TEST_F(TextureUv, TexturedQuadShowsItsTexelsUnderUniformLight) {
                 "<string name=\"filename\" value=\"tex.png\"/><string name=\"filter_type\" value=\"nearest\"/>"
                 "</texture></bsdf></shape></scene>"),
       {});
-  CpuRenderOptions opt;
-  opt.threads = 2;
-  RenderStats stats;
-  Film film = render_cpu(s, opt, stats);
-  ASSERT_EQ(stats.discarded, 0u);
-  std::vector<double> mean = luz_test::pixel_means(film), var = film.variance_of_mean();
+  // The texel at (px, py): Mitsuba's rectangle has uv = ((x + 1) / 2, (y + 1) / 2).
+  auto at = [&](double px, double py, int c, bool flipped) {
+    const int i = std::clamp(int(std::floor((px + 1) / 2 * 4)), 0, 3), j = std::clamp(int(std::floor((py + 1) / 2 * 4)), 0, 3);
+    return texel(i, flipped ? 3 - j : j, c);
+  };
+  const PlaneCheck r = check_plane_pixels(
+      s, [&](double px, double py, int c) { return at(px, py, c, false); },
+      [&](double px, double py, int c) { return at(px, py, c, true); });
+  std::printf("[textures] quad: worst pixel z %.2f (threshold %.2f); the flipped texture fails %d of 768\n", r.worst,
+              r.threshold, r.other_failures);
+  EXPECT_EQ(r.failures, 0);
+  EXPECT_GT(r.other_failures, 384) << "the test cannot tell the texture from its mirror image";
+}
 
-  const double thr = luz_test::sidak_z(1e-3, 16.0 * 16 * 3);
-  int failures = 0, flipped_failures = 0;
-  double worst = 0;
-  for (int y = 0; y < 16; ++y)
-    for (int x = 0; x < 16; ++x) {
-      // Where the pixel's centre ray meets the plane z = 0, and the texel
-      // there: Mitsuba's rectangle has uv = ((x + 1) / 2, (y + 1) / 2).
-      Ray r = s.camera.generate_ray(x + 0.5f, y + 0.5f);
-      double t = -r.o.z / r.d.z, px = r.o.x + t * r.d.x, py = r.o.y + t * r.d.y;
-      int i = int(std::floor((px + 1) / 2 * 4)), j = int(std::floor((py + 1) / 2 * 4));
-      ASSERT_TRUE(i >= 0 && i < 4 && j >= 0 && j < 4);
-      for (int c = 0; c < 3; ++c) {
-        size_t k = 3 * (size_t(y) * 16 + x) + c;
-        double sigma = std::sqrt(var[k]) + luz_test::rounding_floor(mean[k]);
-        double z = std::fabs(mean[k] - texel(i, j, c)) / sigma;
-        worst = std::max(worst, z);
-        failures += z > thr;
-        flipped_failures += std::fabs(mean[k] - texel(i, 3 - j, c)) / sigma > thr;
-      }
+// ---- vertex colours (Mitsuba's mesh_attribute vertex_color) ----
+
+// A vertex-colour texture (times its scale) alone and in a product with a
+// checkerboard, against their definitions; which textures read uv and which
+// read vertex colours.
+TEST(TextureLookup, VertexColoursAloneAndInAProduct) {
+  std::vector<Texture> list(3);
+  list[0] = Texture(VertexColorTexture{});
+  list[0].scale = {0.5f, 1.f, 2.f};
+  CheckerboardTexture c;
+  c.color0 = {0.2f, 0.4f, 0.6f};
+  c.color1 = {1.f, 0.5f, 0.25f};
+  list[1] = Texture(c);
+  MixTexture m;
+  m.op = MixOp::Product;
+  m.a = 0, m.b = 1;
+  list[2] = Texture(m);
+  TextureView v;
+  v.list = list.data();
+  v.count = 3;
+  const Color vc{0.3f, 0.6f, 0.9f};
+  const Color direct = v.eval(0, {0.7f, 0.1f}, vc);
+  EXPECT_FLOAT_EQ(direct.x, 0.15f);
+  EXPECT_FLOAT_EQ(direct.y, 0.6f);
+  EXPECT_FLOAT_EQ(direct.z, 1.8f);
+  // (0.7, 0.1): frac(u) > 1/2 alone, color0; (0.2, 0.1): color1.
+  const Color p0 = v.eval(2, {0.7f, 0.1f}, vc), p1 = v.eval(2, {0.2f, 0.1f}, vc);
+  EXPECT_FLOAT_EQ(p0.x, 0.15f * 0.2f);
+  EXPECT_FLOAT_EQ(p0.z, 1.8f * 0.6f);
+  EXPECT_FLOAT_EQ(p1.y, 0.6f * 0.5f);
+  // Without a vertex colour (lights' lookups) it reads white.
+  EXPECT_FLOAT_EQ(v.eval(0, {0.f, 0.f}).z, 2.f);
+  EXPECT_FALSE(texture_reads_uv(list.data(), 0));
+  EXPECT_TRUE(texture_reads_vertex_color(list.data(), 0));
+  EXPECT_TRUE(texture_reads_uv(list.data(), 1));
+  EXPECT_FALSE(texture_reads_vertex_color(list.data(), 1));
+  EXPECT_TRUE(texture_reads_uv(list.data(), 2));
+  EXPECT_TRUE(texture_reads_vertex_color(list.data(), 2));
+}
+
+using VertexColors = TempDirTest;
+
+namespace {
+
+// A Mitsuba scene of one PLY shape (`ply`: its file name) whose diffuse
+// reflectance is its vertex colours times `scale`, seen square-on from z = 5
+// (x, y in [-1, 1] fill the 16×16 image) under a uniform environment of
+// radiance 1; `extra`: more shapes.
+std::string vertex_color_scene(const std::string& ply, const std::string& scale = "1", const std::string& extra = "") {
+  const double fov = 2.0 * std::atan(0.2) * 180.0 / M_PI;
+  char fov_text[64];
+  std::snprintf(fov_text, sizeof fov_text, "%.17g", fov);
+  return std::string("<scene version=\"3.0.0\"><integrator type=\"path\"/>"
+                     "<sensor type=\"perspective\"><float name=\"fov\" value=\"") +
+         fov_text +
+         "\"/><transform name=\"to_world\"><lookat origin=\"0,0,5\" target=\"0,0,0\" up=\"0,1,0\"/></transform>"
+         "<sampler type=\"independent\"><integer name=\"sample_count\" value=\"64\"/></sampler>"
+         "<film type=\"hdrfilm\"><integer name=\"width\" value=\"16\"/><integer name=\"height\" value=\"16\"/>"
+         "<rfilter type=\"box\"/></film></sensor>"
+         "<emitter type=\"constant\"><rgb name=\"radiance\" value=\"1\"/></emitter>"
+         "<shape type=\"ply\"><string name=\"filename\" value=\"" + ply + "\"/>"
+         "<bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"mesh_attribute\">"
+         "<string name=\"name\" value=\"vertex_color\"/><float name=\"scale\" value=\"" + scale + "\"/>"
+         "</texture></bsdf></shape>" + extra + "</scene>";
+}
+
+// The quad [-1, 1]² of z = 0 as a PLY of two triangles with `colors` (the
+// property lines and each vertex's colour values, in corner order).
+std::string quad_ply(const std::string& props, const std::vector<std::string>& colors) {
+  std::string s = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n" + props +
+                  "element face 2\nproperty list uchar int vertex_indices\nend_header\n";
+  const char* corners[4] = {"-1 -1 0", "1 -1 0", "1 1 0", "-1 1 0"};
+  for (int k = 0; k < 4; ++k) s += std::string(corners[k]) + " " + colors[size_t(k)] + "\n";
+  return s + "3 0 1 2\n3 0 2 3\n";
+}
+
+}  // namespace
+
+// Vertex colours interpolated with the hit's barycentrics: colours that are
+// an affine function c(x, y) of the position at the corners are c(x, y)
+// everywhere on both triangles. A Lambertian quad of that reflectance, seen
+// square-on under a uniform environment of radiance 1, reflects L = c(x, y)
+// (times the texture's scale): each pixel's mean must be c at the point its
+// centre ray meets (a pixel's footprint averages an affine function to its
+// centre's value), within z · its standard error (Šidák over all pixels and
+// channels, family level 1e-3). The colours mirrored in y must fail.
+TEST_F(VertexColors, QuadShowsItsInterpolatedColoursUnderUniformLight) {
+  auto c = [](double x, double y) {
+    return std::array<double, 3>{0.1 + 0.3 * (x + 1), 0.2 + 0.25 * (y + 1), 0.9 - 0.2 * (x + 1) - 0.15 * (y + 1)};
+  };
+  std::vector<std::string> colors;
+  for (auto [x, y] : {std::pair{-1, -1}, {1, -1}, {1, 1}, {-1, 1}}) {
+    const auto v = c(x, y);
+    colors.push_back(std::to_string(v[0]) + " " + std::to_string(v[1]) + " " + std::to_string(v[2]));
+  }
+  write("quad.ply", quad_ply("property float red\nproperty float green\nproperty float blue\n", colors));
+  Scene s = load_mitsuba(write("scene.xml", vertex_color_scene("quad.ply", "0.8")), {});
+  ASSERT_EQ(s.colors.size(), s.positions.size());
+  EXPECT_TRUE(s.uvs.empty()) << "vertex colours need no texture coordinates";
+  const PlaneCheck r = check_plane_pixels(
+      s, [&](double px, double py, int k) { return 0.8 * c(px, py)[size_t(k)]; },
+      [&](double px, double py, int k) { return 0.8 * c(px, -py)[size_t(k)]; });
+  std::printf("[textures] vertex colours: worst pixel z %.2f (threshold %.2f); mirrored colours fail %d of 768\n",
+              r.worst, r.threshold, r.other_failures);
+  EXPECT_EQ(r.failures, 0);
+  EXPECT_GT(r.other_failures, 384) << "the test cannot tell the colours from their mirror image";
+}
+
+// Integer colour channels are normalised by their type's maximum and
+// sRGB-decoded, as Mitsuba 3's PLY reader does; r, g, b name them as well as
+// red, green, blue. A shape whose material does not read them drops them.
+TEST_F(VertexColors, IntegerChannelsAreSrgbDecoded) {
+  write("bytes.ply", quad_ply("property uchar r\nproperty uchar g\nproperty uchar b\n",
+                              {"0 10 128", "255 64 200", "30 90 1", "7 250 99"}));
+  Scene s = load_mitsuba(write("scene.xml", vertex_color_scene("bytes.ply")), {});
+  ASSERT_EQ(s.colors.size(), 4u);
+  const int bytes[4][3] = {{0, 10, 128}, {255, 64, 200}, {30, 90, 1}, {7, 250, 99}};
+  for (int v = 0; v < 4; ++v)
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.colors[size_t(v)][k], srgb_decode(bytes[v][k] / 255.0), 1e-6) << v << " " << k;
+  write("ushort.ply", quad_ply("property ushort red\nproperty ushort green\nproperty ushort blue\n",
+                               {"65535 0 0", "0 65535 0", "0 0 65535", "32768 32768 32768"}));
+  Scene u = load_mitsuba(write("u.xml", vertex_color_scene("ushort.ply")), {});
+  ASSERT_EQ(u.colors.size(), 4u);
+  EXPECT_NEAR(u.colors[3].x, srgb_decode(32768.0 / 65535.0), 1e-6);
+  Scene plain = load_mitsuba(write("plain.xml", "<scene version=\"3.0.0\"><sensor type=\"perspective\"/>"
+                                                "<shape type=\"ply\"><string name=\"filename\" value=\"bytes.ply\"/></shape></scene>"),
+                             {});
+  EXPECT_TRUE(plain.colors.empty());
+}
+
+// Shapes with and without vertex colours in one scene keep them aligned
+// (white where a mesh has none), and each hit interpolates its own.
+TEST_F(VertexColors, MixedMeshesKeepTheirColours) {
+  write("c.ply", quad_ply("property float r\nproperty float g\nproperty float b\n",
+                          {"1 0 0", "0 1 0", "0 0 1", "0.5 0.5 0.5"}));
+  const std::string other = "<shape type=\"rectangle\"><transform name=\"to_world\"><translate z=\"-1\"/></transform></shape>";
+  Scene s = load_mitsuba(write("scene.xml", vertex_color_scene("c.ply", "1", other)), {});
+  ASSERT_EQ(s.colors.size(), s.positions.size());
+  SceneView v = s.view();
+  ASSERT_NE(v.colors, nullptr);
+  for (uint32_t tri = 0; tri < s.num_triangles(); ++tri) {
+    Hit hit;
+    hit.prim = tri;
+    hit.u = 0.25f, hit.v = 0.5f;
+    const uint32_t* i = s.indices.data() + 3 * tri;
+    const Color want = s.colors[i[0]] * 0.25f + s.colors[i[1]] * 0.25f + s.colors[i[2]] * 0.5f;
+    const Color got = v.hit_color(hit);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(got[k], want[k], 1e-6f) << tri;
+    const bool from_ply = s.tri_material[tri] == s.tri_material[0];
+    if (!from_ply)
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(got[k], 1.f) << "a mesh without colours reads white";
+    // The material's reflectance is the colour there.
+    if (from_ply) {
+      const Bsdf b = v.materials.bsdf(s.tri_material[tri], v.textures, {}, got);
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(b.diffuse.reflectance[k], got[k], 1e-6f);
     }
-  std::printf("[textures] quad: worst pixel z %.2f (threshold %.2f); the flipped texture fails %d of 768\n", worst, thr,
-              flipped_failures);
-  EXPECT_EQ(failures, 0);
-  EXPECT_GT(flipped_failures, 384) << "the test cannot tell the texture from its mirror image";
+  }
+}
+
+TEST_F(VertexColors, BadUsesAreErrors) {
+  write("c.ply", quad_ply("property float r\nproperty float g\nproperty float b\n", {"1 0 0", "0 1 0", "0 0 1", "1 1 1"}));
+  write("plain.ply", quad_ply("", {"", "", "", ""}));
+  write("bright.ply", quad_ply("property float r\nproperty float g\nproperty float b\n",
+                               {"1 0 0", "0 1.5 0", "0 0 1", "1 1 1"}));
+  const std::string attr = "<texture name=\"reflectance\" type=\"mesh_attribute\"><string name=\"name\" value=\"vertex_color\"/></texture>";
+  auto scene = [&](const std::string& name, const std::string& shape) {
+    return write(name, "<scene version=\"3.0.0\"><sensor type=\"perspective\"/>" + shape + "</scene>");
+  };
+  luz_test::expect_load_refused(scene("rect.xml", "<shape type=\"rectangle\"><bsdf type=\"diffuse\">" + attr + "</bsdf></shape>"),
+                                "rect.xml", "a material reading vertex colours on a mesh without them");
+  luz_test::expect_load_refused(
+      scene("none.xml", "<shape type=\"ply\"><string name=\"filename\" value=\"plain.ply\"/><bsdf type=\"diffuse\">" + attr +
+                            "</bsdf></shape>"),
+      "none.xml", "the material reads vertex colours (mesh_attribute), and 'plain.ply' has none");
+  luz_test::expect_load_refused(
+      scene("bright.xml", "<shape type=\"ply\"><string name=\"filename\" value=\"bright.ply\"/><bsdf type=\"diffuse\">" +
+                              attr + "</bsdf></shape>"),
+      "bright.xml", "the colour of vertex 1 is not within [0, 1]");
+  luz_test::expect_load_refused(
+      scene("face.xml", "<shape type=\"ply\"><string name=\"filename\" value=\"c.ply\"/><bsdf type=\"diffuse\">"
+                        "<texture name=\"reflectance\" type=\"mesh_attribute\"><string name=\"name\" value=\"face_color\"/>"
+                        "</texture></bsdf></shape>"),
+      "face.xml", "mesh attribute 'face_color' is not supported (supported: vertex_color)");
+  luz_test::expect_load_refused(
+      scene("emit.xml", "<shape type=\"ply\"><string name=\"filename\" value=\"c.ply\"/><emitter type=\"area\">"
+                        "<texture name=\"radiance\" type=\"mesh_attribute\"><string name=\"name\" value=\"vertex_color\"/>"
+                        "</texture></emitter></shape>"),
+      "emit.xml", "an emitter's radiance from vertex colours is not supported");
+  luz_test::expect_load_refused(
+      scene("sphere.xml", "<shape type=\"sphere\"><bsdf type=\"diffuse\">" + attr + "</bsdf></shape>"), "sphere.xml",
+      "a material reading vertex colours on a sphere without them");
 }
 
 // ---- Mitsuba 0.5 names ----

@@ -12,8 +12,10 @@
 //    (float; absent: flat shading), TEXCOORD_n (float, or normalised
 //    unsigned byte or short), and KHR_mesh_quantization's integer types
 //    where the file uses it: one uv set per primitive, the one its material's
-//    textures name (KHR_texture_transform's texCoord included); sparse
-//    accessors are refused, COLOR_0 ignored with a warning. Morph targets
+//    textures name (KHR_texture_transform's texCoord included); COLOR_0
+//    (float, or normalised unsigned byte or short) multiplies the base
+//    colour (its alpha is ignored, with a warning where it matters); sparse
+//    accessors are refused. Morph targets
 //    at the node's (else the mesh's) weights; skins by their joints'
 //    matrices (linear blend, the skinned node's own transform ignored, as
 //    §3.7.3 says): the pose the file holds, without animation.
@@ -189,8 +191,9 @@ class GltfLoader {
     Color emission;
     int32_t emission_texture = -1;
     int uv_set = -1;  // -1: no texture
+    bool blended = false;  // alphaMode MASK or BLEND
   };
-  std::map<int, MaterialInfo> materials_;
+  std::map<std::pair<int, bool>, MaterialInfo> materials_;  // by (glTF material, with COLOR_0)
   std::map<int, int32_t> image_texture_;  // image -> its texels' first Luz texture
   std::vector<int> uses_;                  // per mesh: how many nodes place it
   std::map<int, int32_t> objects_;         // mesh -> its SceneBuilder object (-1: flattened)
@@ -445,7 +448,7 @@ class GltfLoader {
   // KHR_mesh_quantization's where the file uses it: positions of any
   // integer type, normalised or not; normals of normalised signed bytes or
   // shorts; texture coordinates of any 8- or 16-bit type.
-  enum class Attr { Position, Normal, Texcoord };
+  enum class Attr { Position, Normal, Texcoord, Color };
   Data attribute(const tinygltf::Primitive& p, const std::string& name, Attr kind, const std::string& where) {
     Data d = accessor(p.attributes.at(name), where + ": " + name);
     const int t = d.component_type;
@@ -453,8 +456,13 @@ class GltfLoader {
                        t == TINYGLTF_COMPONENT_TYPE_SHORT || t == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
     const bool unsigned_norm = d.normalized && (t == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE || t == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT);
     const bool signed_norm = d.normalized && (t == TINYGLTF_COMPONENT_TYPE_BYTE || t == TINYGLTF_COMPONENT_TYPE_SHORT);
-    const bool ok = t == TINYGLTF_COMPONENT_TYPE_FLOAT || (kind == Attr::Texcoord && unsigned_norm) ||
-                    (quantized_ && (kind == Attr::Normal ? signed_norm : small));
+    const bool ok = t == TINYGLTF_COMPONENT_TYPE_FLOAT || ((kind == Attr::Texcoord || kind == Attr::Color) && unsigned_norm) ||
+                    (quantized_ && kind != Attr::Color && (kind == Attr::Normal ? signed_norm : small));
+    if (kind == Attr::Color) {
+      if ((d.components != 3 && d.components != 4) || !ok)
+        fail(where, name + " must be VEC3 or VEC4 of floats or normalised unsigned bytes or shorts");
+      return d;
+    }
     const int components = kind == Attr::Texcoord ? 2 : 3;
     if (d.components != components || !ok) {
       const char* core = kind == Attr::Texcoord ? "floats or normalised unsigned bytes or shorts" : "floats";
@@ -690,8 +698,20 @@ class GltfLoader {
         for (size_t i = 0; i < local_n.size(); ++i) mesh.normals[i] = world.normal(local_n[i]);
       }
       if (p.attributes.count("TANGENT")) warn(where + ": TANGENT is ignored (tangents follow dp/du)");
-      if (p.attributes.count("COLOR_0")) warn(where + ": COLOR_0 is ignored (vertex colours are not supported)");
-      const MaterialInfo& mat = material(p.material);
+      const bool colored = p.attributes.count("COLOR_0") > 0;
+      const MaterialInfo& mat = material(p.material, colored);
+      if (colored) {
+        const Data c = attribute(p, "COLOR_0", Attr::Color, where);
+        if (c.count != n) fail(where, "COLOR_0 and POSITION differ in count");
+        mesh.colors.resize(n);
+        bool translucent = false;
+        for (size_t i = 0; i < n; ++i) {
+          mesh.colors[i] = vec3(c, i);
+          translucent |= c.components == 4 && component(c, i, 3) < 1.0;
+        }
+        if (translucent && mat.blended)
+          warn(where + ": COLOR_0's alpha is ignored (the opacity is the base colour's alone)");
+      }
       std::vector<Vec2>& uvs = mesh.uvs;
       if (mat.uv_set >= 0) {
         const std::string name = "TEXCOORD_" + std::to_string(mat.uv_set);
@@ -768,6 +788,7 @@ class GltfLoader {
       for (uint32_t i : v) {
         one.positions.push_back(mesh.positions[i]);
         one.uvs.push_back(mesh.uvs[i]);
+        if (!mesh.colors.empty()) one.colors.push_back(mesh.colors[i]);
         if (!mesh.normals.empty()) one.normals.push_back(mesh.normals[i]);
       }
       builder_.add_mesh(at, std::move(one), mat.index, &e);
@@ -924,15 +945,22 @@ class GltfLoader {
     return v.GetNumberAsDouble();
   }
 
-  const MaterialInfo& material(int index) {
-    auto it = materials_.find(index);
+  // glTF material `index` (-1: the default), on a primitive with COLOR_0
+  // (`colored`: the base colour times the vertex colours) or without.
+  const MaterialInfo& material(int index, bool colored) {
+    auto it = materials_.find({index, colored});
     if (it != materials_.end()) return it->second;
     MaterialInfo info;
     if (index < 0) {  // glTF's default material: white, metallic 1, roughness 1
       MaterialDesc d;
       d.bsdf = Bsdf::make_gltf_pbr({1.f, 1.f, 1.f}, 1.f, 1.f);
+      if (colored) {
+        const int32_t t = builder_.add_vertex_color_texture(at_);
+        d.bindings.push_back({t, BsdfPart::Front, BsdfParam::BaseColor});
+        d.bsdf.gltf_pbr.base_color = builder_.texture_stats(t).mean;
+      }
       info.index = builder_.add_material(at_, d);
-      return materials_[index] = info;
+      return materials_[{index, colored}] = info;
     }
     if (size_t(index) >= model_.materials.size()) fail("meshes", "no material " + std::to_string(index));
     const tinygltf::Material& m = model_.materials[size_t(index)];
@@ -980,6 +1008,16 @@ class GltfLoader {
       bindings.push_back({t, BsdfPart::Front, BsdfParam::BaseColor});
       surface.base_color = mean;
     }
+    if (colored) {  // COLOR_0 × baseColorFactor × baseColorTexture
+      const SourceLoc mat_at{path_ + ": " + where, 0};
+      int32_t t = builder_.add_vertex_color_texture(mat_at, pbr.baseColorTexture.index >= 0 ? Color{1.f, 1.f, 1.f} : base);
+      if (pbr.baseColorTexture.index >= 0) {
+        t = builder_.add_product_texture(mat_at, {bindings.back().texture, {}}, {t, {}});
+        bindings.pop_back();
+      }
+      bindings.insert(bindings.begin(), {t, BsdfPart::Front, BsdfParam::BaseColor});
+      surface.base_color = builder_.texture_stats(t).mean;
+    }
     if (transmission_index >= 0) {
       Color mean;
       const int32_t t = texture(transmission_index, transmission_set, transmission_ext, TextureChannel::R, false,
@@ -1004,6 +1042,7 @@ class GltfLoader {
     int32_t opacity_texture = -1;
     if (m.alphaMode == "MASK" || m.alphaMode == "BLEND") {
       const bool mask = m.alphaMode == "MASK";
+      info.blended = true;
       if (mask && !(m.alphaCutoff >= 0.0 && std::isfinite(m.alphaCutoff))) fail(where, "alphaCutoff must be >= 0");
       if (mask) cutoff = float(m.alphaCutoff);
       if (pbr.baseColorTexture.index >= 0) {
@@ -1052,7 +1091,7 @@ class GltfLoader {
       info.emissive = false, info.emission_texture = -1;
     }
     info.index = builder_.add_material({path_ + ": " + where, 0}, d);
-    return materials_[index] = info;
+    return materials_[{index, colored}] = info;
   }
 
   // ---- camera and lights ----

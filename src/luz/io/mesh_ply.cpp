@@ -53,7 +53,7 @@ int64_t type_max(PlyType t) {
 }
 
 // What the reader does with a property's values.
-enum class Slot : uint8_t { Skip, X, Y, Z, Nx, Ny, Nz, U, V, Indices, FaceIndex };
+enum class Slot : uint8_t { Skip, X, Y, Z, Nx, Ny, Nz, U, V, R, G, B, Indices, FaceIndex };
 
 struct Property {
   std::string name;
@@ -78,7 +78,7 @@ struct Header {
   size_t data_offset = 0;  // first byte after end_header's line
   int data_line = 0;       // that byte's line
   int vertex = -1, face = -1;
-  bool normals = false, uvs = false, face_indices = false;
+  bool normals = false, uvs = false, colors = false, face_indices = false;
 };
 
 std::string quoted(std::string_view s) {
@@ -208,7 +208,7 @@ class HeaderParser {
   }
 
   // Sets the slots of a group of properties that come all or none
-  // (x y z, nx ny nz, u v); true if all are there.
+  // (x y z, nx ny nz, u v, r g b); true if all are there.
   bool group(Element& e, std::initializer_list<std::string_view> names, Slot first) const {
     Property* found[3] = {};
     int n = 0, i = 0;
@@ -243,6 +243,8 @@ class HeaderParser {
     h_.normals = group(v, {"nx", "ny", "nz"}, Slot::Nx);
     for (auto uv : {std::pair{"u", "v"}, {"s", "t"}, {"texture_u", "texture_v"}, {"texture_s", "texture_t"}})
       if (!h_.uvs) h_.uvs = group(v, {uv.first, uv.second}, Slot::U);
+    h_.colors = group(v, {"r", "g", "b"}, Slot::R);
+    if (!h_.colors) h_.colors = group(v, {"red", "green", "blue"}, Slot::R);
 
     Element& f = h_.elements[h_.face];
     Property* indices = nullptr;
@@ -458,6 +460,13 @@ class AsciiSource {
   uint64_t index_ = 0;
 };
 
+// An integer colour channel as Mitsuba 3 reads it: normalised by its type's
+// maximum (negative values to 0), then sRGB-decoded.
+float color_value(double v, PlyType t) {
+  const double x = std::max(v, 0.0) / double(type_max(t));
+  return float(x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4));
+}
+
 // Reads past a property the mesh does not use (ASCII: checking its numbers).
 template <class Source>
 void skip_property(Source& src, const Property& p) {
@@ -475,11 +484,13 @@ void read_vertices(Source& src, const Header& h, const Element& e, PlyMesh& m) {
   m.positions.resize(e.count);
   if (h.normals) m.normals.resize(e.count);
   if (h.uvs) m.uvs.resize(e.count);
+  if (h.colors) m.colors.resize(e.count);
   for (uint64_t i = 0; i < e.count; ++i) {
     src.begin_entry("vertex", i);
-    float v[9] = {};  // by Slot
+    float v[12] = {};  // by Slot
     for (const Property& p : e.props) {
-        if (p.slot == Slot::Skip) skip_property(src, p);
+      if (p.slot == Slot::Skip) skip_property(src, p);
+      else if (p.slot >= Slot::R && p.slot <= Slot::B && is_integer(p.type)) v[(int)p.slot] = color_value(src.real(p.type), p.type);
       else v[(int)p.slot] = (float)src.real(p.type);
     }
     m.positions[i] = {v[1], v[2], v[3]};
@@ -491,6 +502,10 @@ void read_vertices(Source& src, const Header& h, const Element& e, PlyMesh& m) {
     if (h.uvs) {
       m.uvs[i] = {v[7], v[8]};
       if (!std::isfinite(v[7]) || !std::isfinite(v[8])) src.fail_entry("its texture coordinates are not finite");
+    }
+    if (h.colors) {
+      m.colors[i] = {v[9], v[10], v[11]};
+      if (!is_finite(m.colors[i])) src.fail_entry("its colour is not finite");
     }
     src.end_entry();
   }
@@ -569,7 +584,8 @@ PlyMesh read_ply_memory(const std::string& name, const char* data, size_t size) 
   Header h = HeaderParser(name, data, size).parse();
   uint64_t need = 0;  // the mesh's arrays, from the header's counts
   if (h.vertex >= 0)
-    need += h.elements[size_t(h.vertex)].count * (sizeof(Vec3) + (h.normals ? sizeof(Vec3) : 0) + (h.uvs ? sizeof(Vec2) : 0));
+    need += h.elements[size_t(h.vertex)].count * (sizeof(Vec3) + (h.normals ? sizeof(Vec3) : 0) + (h.uvs ? sizeof(Vec2) : 0) +
+                                                  (h.colors ? sizeof(Vec3) : 0));
   if (h.face >= 0) need += h.elements[size_t(h.face)].count * (3 * sizeof(uint32_t) + (h.face_indices ? sizeof(int32_t) : 0));
   require_memory(need, name, "its vertices and faces");
   if (h.format == Format::Ascii) return read_data(AsciiSource(name, data, size, h), h);

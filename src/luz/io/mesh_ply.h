@@ -1,6 +1,6 @@
 // PLY meshes (Turk's polygon file format): ASCII, binary little and big
-// endian, every scalar type; positions, normals, texture coordinates and
-// faces, every other element and property skipped. Debian packages no PLY
+// endian, every scalar type; positions, normals, texture coordinates,
+// vertex colours and faces, every other element and property skipped. Debian packages no PLY
 // reader; this one reads the whole file at once and checks every count and
 // index before using it, so a lying or truncated file is an InputError.
 #pragma once
@@ -20,6 +20,10 @@ struct PlyMesh {
   // Empty, or one per position, as written in the file (no flip): u/v, s/t,
   // texture_u/texture_v or texture_s/texture_t.
   std::vector<Vec2> uvs;
+  // Empty, or one per position: the vertex colour (r, g, b or red, green,
+  // blue), linear, as Mitsuba 3 reads it: a float channel as written, an
+  // integer one divided by its type's maximum and sRGB-decoded.
+  std::vector<Color> colors;
   // Triangles (vertex_indices or vertex_index); polygons fan-triangulated:
   // face (v0, v1, ..., vn) gives (v0, v1, v2), (v0, v2, v3), ...
   std::vector<uint32_t> indices;

@@ -1,5 +1,6 @@
 // A mesh file as a whole scene: OBJ (its MTL materials as Luz materials,
-// Ke as area lights) or PLY (diffuse), a camera framing the bounds, and,
+// Ke as area lights) or PLY (diffuse, of its vertex colours where it has
+// them, else grey), a camera framing the bounds, and,
 // when nothing in the file emits, a uniform white sky so that the model shows.
 #include <cmath>
 #include <cstdio>
@@ -197,11 +198,17 @@ Scene load_ply_scene(const std::string& path) {
   SceneBuilder builder(path);
   MaterialDesc d;
   d.bsdf = Bsdf::make_diffuse({0.5f, 0.5f, 0.5f}, true);
+  if (!ply.colors.empty()) {  // as MeshLab and Blender show them
+    const int32_t t = builder.add_vertex_color_texture({});
+    d.bindings.push_back({t, BsdfPart::Front, BsdfParam::Reflectance});
+    d.bsdf.diffuse.reflectance = builder.texture_stats(t).mean;
+  }
   const uint32_t material = builder.add_material({}, d);
   TriangleMesh mesh;
   mesh.positions = std::move(ply.positions);
   mesh.normals = std::move(ply.normals);
   mesh.indices = std::move(ply.indices);
+  mesh.colors = std::move(ply.colors);
   builder.add_mesh({}, std::move(mesh), material);
   return finish_mesh_scene(builder, false);
 }

@@ -85,8 +85,8 @@ class Reader {
       fail_data(std::to_string(nv) + " vertices and " + std::to_string(nt) +
                 " triangles need more data than the file's remaining " + std::to_string(avail) + " bytes can hold");
 
-    // In memory: Vec3 positions, normals, Vec2 uvs, a colour array read and
-    // dropped, the indices and their raw bytes.
+    // In memory: Vec3 positions, normals, colours, Vec2 uvs, the indices and
+    // their raw bytes.
     const uint64_t resident = nv * (sizeof(Vec3) * (1 + bool(flags & kHasNormals) + bool(flags & kHasColors)) +
                                     ((flags & kHasUvs) ? sizeof(Vec2) : 0)) +
                               nt * 24;
@@ -95,7 +95,7 @@ class Reader {
     m.positions = vectors<Vec3>(size_t(nv), flags & kDouble, "position");
     if (flags & kHasNormals) m.normals = vectors<Vec3>(size_t(nv), flags & kDouble, "normal");
     if (flags & kHasUvs) m.uvs = vectors<Vec2>(size_t(nv), flags & kDouble, "texture coordinate");
-    if (flags & kHasColors) vectors<Vec3>(size_t(nv), flags & kDouble, "colour");  // read, not used
+    if (flags & kHasColors) m.colors = vectors<Vec3>(size_t(nv), flags & kDouble, "colour");
     m.indices.resize(size_t(nt) * 3);
     std::vector<uint8_t> raw(m.indices.size() * 4);
     fill(raw.data(), raw.size());

@@ -23,6 +23,7 @@ struct SerializedMesh {
   std::vector<Vec3> positions;
   std::vector<Vec3> normals;  // empty, or one per position
   std::vector<Vec2> uvs;      // empty, or one per position, as stored
+  std::vector<Color> colors;  // empty, or one per position, as stored (Mitsuba's vertex_color)
   std::vector<uint32_t> indices;
   bool face_normals = false;  // flag 0x0010: shade with face normals
 };

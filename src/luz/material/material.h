@@ -68,16 +68,18 @@ struct MaterialsView {
   bool masked = false;  // some material has an opacity below 1 (Material::masked): tracers run the alpha test
   bool mapped = false;  // some material has a normal or bump map (Material::mapped)
 
-  // The BSDF of material m at a surface point of texture coordinates uv.
-  LUZ_INLINE Bsdf bsdf(uint32_t m, const TextureView& tex, Vec2 uv) const {
+  // The BSDF of material m at a surface point of texture coordinates uv and
+  // vertex colour vc.
+  LUZ_INLINE Bsdf bsdf(uint32_t m, const TextureView& tex, Vec2 uv, Color vc = {1.f, 1.f, 1.f}) const {
     Bsdf b = list[m].bsdf;
-    apply_textures(b, list[m], tex, uv);
+    apply_textures(b, list[m], tex, uv, vc);
     return b;
   }
 
-  // Sets b's textured parameters (b: a copy of mat.bsdf) to their values at uv.
-  LUZ_INLINE void apply_textures(Bsdf& b, const Material& mat, const TextureView& tex, Vec2 uv) const {
-    for (uint32_t k = 0; k < mat.num_bindings; ++k) apply(b, bindings[mat.first_binding + k], tex, uv);
+  // Sets b's textured parameters (b: a copy of mat.bsdf) to their values at
+  // (uv, vc).
+  LUZ_INLINE void apply_textures(Bsdf& b, const Material& mat, const TextureView& tex, Vec2 uv, Color vc) const {
+    for (uint32_t k = 0; k < mat.num_bindings; ++k) apply(b, bindings[mat.first_binding + k], tex, uv, vc);
   }
 
   // The first textured parameter's texture, or -1: the texels a hit will read
@@ -87,8 +89,8 @@ struct MaterialsView {
     return mat.num_bindings > 0 ? bindings[mat.first_binding].texture : -1;
   }
 
-  LUZ_INLINE static void apply(Bsdf& b, const TextureBinding& t, const TextureView& tex, Vec2 uv) {
-    const Color v = tex.eval(uint32_t(t.texture), uv);
+  LUZ_INLINE static void apply(Bsdf& b, const TextureBinding& t, const TextureView& tex, Vec2 uv, Color vc) {
+    const Color v = tex.eval(uint32_t(t.texture), uv, vc);
     if (t.part == BsdfPart::BlendWeight) {
       b.blend_weight = clamp(luminance(v), 0.f, 1.f);
       return;

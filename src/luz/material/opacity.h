@@ -29,6 +29,20 @@ LUZ_FORCE_INLINE Vec2 triangle_uv(const Vec2* uvs, const uint32_t* indices, cons
   return {t0.x * b0 + t1.x * hit.u + t2.x * hit.v, t0.y * b0 + t1.y * hit.u + t2.y * hit.v};
 }
 
+// The vertex colour at a triangle hit, interpolated as triangle_uv (white
+// without colours).
+LUZ_FORCE_INLINE Color triangle_color(const Color* colors, const uint32_t* indices, const Hit& hit) {
+  if (!colors) return {1.f, 1.f, 1.f};
+  const uint32_t* v = indices + 3 * size_t(hit.prim);
+  return colors[v[0]] * (1.f - hit.u - hit.v) + colors[v[1]] * hit.u + colors[v[2]] * hit.v;
+}
+
+// The vertex colour at a hit (white on a sphere).
+LUZ_FORCE_INLINE Color hit_color(const Color* colors, const uint32_t* indices, const Hit& hit) {
+  if (hit.kind == PrimKind::Sphere) return {1.f, 1.f, 1.f};
+  return triangle_color(colors, indices, hit);
+}
+
 // Texture coordinates at a hit: a triangle's interpolated, a sphere's at the
 // hit's point p (sphere_uv).
 LUZ_FORCE_INLINE Vec2 hit_uv(const Vec2* uvs, const uint32_t* indices, const Sphere* spheres, const Hit& hit, Vec3 p) {
@@ -45,6 +59,7 @@ struct OpacityView {
   const Vec2* uvs = nullptr;
   const Sphere* spheres = nullptr;
   TextureView textures;
+  const Color* colors = nullptr;
 
   // Opacity at the hit of the ray (o, d), in [0, 1] (the loader refuses
   // texels above 1).
@@ -52,7 +67,8 @@ struct OpacityView {
     const Material& m =
         materials[hit.kind == PrimKind::Triangle ? tri_material[hit.prim] : spheres[hit.prim].material];
     if (m.opacity_texture < 0) return m.opacity;
-    const float a = luminance(textures.eval(uint32_t(m.opacity_texture), hit_uv(uvs, indices, spheres, hit, o + d * hit.t)));
+    const float a = luminance(textures.eval(uint32_t(m.opacity_texture), hit_uv(uvs, indices, spheres, hit, o + d * hit.t),
+                                            hit_color(colors, indices, hit)));
     return m.alpha_cutoff < 0.f ? a : (a >= m.alpha_cutoff ? 1.f : 0.f);
   }
 

@@ -210,6 +210,7 @@ RenderFields render_fields(const Scene& scene, RenderDevice device) {
   geometry.array(scene.positions);
   geometry.array(scene.normals);
   geometry.array(scene.uvs);
+  if (!scene.colors.empty()) geometry.array(scene.colors);  // (the hash of a scene without is as before)
   geometry.array(scene.indices);
   geometry.array(scene.tri_material);
   geometry.array(scene.tri_emitter);
@@ -230,7 +231,8 @@ RenderFields render_fields(const Scene& scene, RenderDevice device) {
   materials.live(scene.textures, [](void* at, const Texture& t) {
     Texture* c = t.type == TextureType::Bitmap         ? new (at) Texture(t.bitmap)
                  : t.type == TextureType::Checkerboard ? new (at) Texture(t.checkerboard)
-                                                       : new (at) Texture(t.mix);
+                 : t.type == TextureType::Mix          ? new (at) Texture(t.mix)
+                                                       : new (at) Texture(t.vertex_color);
     c->to_uv = t.to_uv;
     c->scale = t.scale;
     c->offset = t.offset;

@@ -17,7 +17,7 @@ double angle_between(const Vec3& a, const Vec3& b) {
 }  // namespace
 
 void compute_vertex_normals(std::vector<Vec3>& positions, std::vector<uint32_t>& indices, std::vector<Vec2>& uvs,
-                            std::vector<Vec3>& normals, double max_angle_deg) {
+                            std::vector<Vec3>& normals, double max_angle_deg, std::vector<Color>* colors) {
   const size_t nv = positions.size(), nf = indices.size() / 3;
   // Unit face normals (zero for a degenerate face).
   std::vector<Vec3> fn(nf);
@@ -53,6 +53,7 @@ void compute_vertex_normals(std::vector<Vec3>& positions, std::vector<uint32_t>&
       if (g > 0) {
         positions.push_back(positions[v]);
         if (!uvs.empty()) uvs.push_back(uvs[v]);
+        if (colors && !colors->empty()) colors->push_back((*colors)[v]);
         normals.push_back(Vec3{});
       }
       group[ci] = g;

@@ -20,11 +20,11 @@ namespace luz {
 // the faces around it are grouped: each face not yet grouped starts a group
 // and takes every later ungrouped face whose normal is within max_angle_deg
 // of its own (degenerate faces join the first group); each group beyond the
-// first gets a copy of the vertex (and of its uv), so creases sharper than
+// first gets a copy of the vertex (and of its uv and colour), so creases sharper than
 // the angle stay sharp. `indices` then refer to the copies. max_angle_deg
 // < 0: one group per vertex.
 void compute_vertex_normals(std::vector<Vec3>& positions, std::vector<uint32_t>& indices, std::vector<Vec2>& uvs,
-                            std::vector<Vec3>& normals, double max_angle_deg = -1);
+                            std::vector<Vec3>& normals, double max_angle_deg = -1, std::vector<Color>* colors = nullptr);
 
 // Whether every vertex normal is (within float rounding, 1e-6 in its
 // cosine) the normal of each face around it: shading by them is shading flat.

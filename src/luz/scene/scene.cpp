@@ -9,9 +9,10 @@ namespace luz {
 
 void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
                      uint32_t material, const Color* emission, const std::vector<Vec2>& uv,
-                     int32_t emission_texture, bool two_sided) {
+                     int32_t emission_texture, bool two_sided, const std::vector<Color>& col) {
   uint32_t base = uint32_t(positions.size());
   if (!uv.empty() && uv.size() != pos.size()) throw std::invalid_argument("add_mesh: one texture coordinate per position");
+  if (!col.empty() && col.size() != pos.size()) throw std::invalid_argument("add_mesh: one vertex colour per position");
   if (!objects.empty() && emission) throw std::invalid_argument("add_mesh: an object's triangles cannot emit");
   if (emission_texture >= 0 && (!emission || uv.empty()))
     throw std::invalid_argument("add_mesh: a textured emitter needs its radiance and texture coordinates");
@@ -23,6 +24,14 @@ void Scene::add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm,
       uvs.resize(positions.size() + pos.size(), Vec2{});
     else
       uvs.insert(uvs.end(), uv.begin(), uv.end());
+  }
+  // Vertex colours likewise, white where a mesh has none.
+  if (!col.empty() || !colors.empty()) {
+    colors.resize(positions.size(), Color{1.f, 1.f, 1.f});
+    if (col.empty())
+      colors.resize(positions.size() + pos.size(), Color{1.f, 1.f, 1.f});
+    else
+      colors.insert(colors.end(), col.begin(), col.end());
   }
   // Keep normals either absent for all vertices or present for all.
   if (!nrm.empty() && normals.empty() && !positions.empty()) {
@@ -90,8 +99,10 @@ void Scene::flatten_instances() {
   const size_t nv = objects.empty() ? positions.size() : objects.front().first_vertex;
   std::vector<Vec3> pos(positions.begin(), positions.begin() + std::ptrdiff_t(nv)), nrm;
   std::vector<Vec2> uv;
+  std::vector<Color> col;
   if (!normals.empty()) nrm.assign(normals.begin(), normals.begin() + std::ptrdiff_t(nv));
   if (!uvs.empty()) uv.assign(uvs.begin(), uvs.begin() + std::ptrdiff_t(nv));
+  if (!colors.empty()) col.assign(colors.begin(), colors.begin() + std::ptrdiff_t(nv));
   std::vector<uint32_t> idx(indices.begin(), indices.begin() + 3 * std::ptrdiff_t(nt));
   std::vector<uint32_t> mat(tri_material.begin(), tri_material.begin() + std::ptrdiff_t(nt));
   std::vector<int32_t> emit(tri_emitter.begin(), tri_emitter.begin() + std::ptrdiff_t(nt));
@@ -104,6 +115,7 @@ void Scene::flatten_instances() {
       pos.push_back(in.to_world.point(positions[k]));
       if (!normals.empty()) nrm.push_back(in.normal(normals[k]));
       if (!uvs.empty()) uv.push_back(uvs[k]);
+      if (!colors.empty()) col.push_back(colors[k]);
     }
     for (uint32_t t = o.first_triangle; t < o.first_triangle + o.num_triangles; ++t) {
       for (int j = 0; j < 3; ++j) idx.push_back(indices[3 * size_t(t) + size_t(j)] - o.first_vertex + base);
@@ -114,6 +126,7 @@ void Scene::flatten_instances() {
   positions = std::move(pos);
   normals = std::move(nrm);
   uvs = std::move(uv);
+  colors = std::move(col);
   indices = std::move(idx);
   tri_material = std::move(mat);
   tri_emitter = std::move(emit);
@@ -422,6 +435,7 @@ SceneView Scene::view() const {
   v.tri_material = tri_material.data();
   v.tri_emitter = tri_emitter.data();
   v.uvs = uvs.empty() ? nullptr : uvs.data();
+  v.colors = colors.empty() ? nullptr : colors.data();
   v.tri_normals = tri_normals.size() == num_triangles() && !tri_normals.empty() ? tri_normals.data() : nullptr;
   v.num_triangles = num_triangles();
   v.spheres = spheres.data();

@@ -48,6 +48,7 @@ struct Scene {
   std::vector<Vec3> positions;
   std::vector<Vec3> normals;  // empty, or one per position
   std::vector<Vec2> uvs;      // empty, or one per position (texture coordinates, texture.h)
+  std::vector<Color> colors;  // empty, or one per position (vertex colours, linear; white where a mesh has none)
   std::vector<uint32_t> indices;
   std::vector<uint32_t> tri_material;
   std::vector<int32_t> tri_emitter;
@@ -98,11 +99,11 @@ struct Scene {
   // empty, and so may uv (texture coordinates). With `emission`, every
   // triangle is an area light of that radiance, or, with emission_texture
   // >= 0 (and uv), of that texture's (emission holding its mean), on both
-  // sides with `two_sided`. Once an object is begun, meshes (without
-  // emission) go into the last object.
+  // sides with `two_sided`. col: its vertex colours, or empty. Once an
+  // object is begun, meshes (without emission) go into the last object.
   void add_mesh(const std::vector<Vec3>& pos, const std::vector<Vec3>& nrm, const std::vector<uint32_t>& idx,
                 uint32_t material, const Color* emission, const std::vector<Vec2>& uv = {},
-                int32_t emission_texture = -1, bool two_sided = false);
+                int32_t emission_texture = -1, bool two_sided = false, const std::vector<Color>& col = {});
   // A sphere; with `emission`, an area light of that radiance, or with
   // emission_texture >= 0 of that texture's at its uv (emission holding its
   // mean). frame: its object frame (Sphere::frame).

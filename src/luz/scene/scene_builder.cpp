@@ -172,6 +172,22 @@ int32_t SceneBuilder::add_image_texture(const SourceLoc& at, const ImageTextureD
   return push_texture_stats(index, stats);
 }
 
+int32_t SceneBuilder::add_vertex_color_texture(const SourceLoc& at, Color scale) {
+  if (!is_finite(scale) || !(scale.x >= 0.f && scale.y >= 0.f && scale.z >= 0.f))
+    error(at, "a vertex colour's scale must be finite and not negative");
+  Texture tex{VertexColorTexture{}};
+  tex.scale = scale;
+  int32_t index = -1;
+  try {
+    index = int32_t(scene_.add_texture(tex));
+  } catch (const std::length_error& e) {
+    error(at, e.what());
+  }
+  // Colours in [0, 1] (check_mesh), their mean unknown until every mesh is
+  // read: mid-grey.
+  return push_texture_stats(index, TextureStats{scale * 0.5f, Color{}, scale});
+}
+
 int32_t SceneBuilder::add_checkerboard(const SourceLoc& at, Color color0, Color color1, const UvTransform& to_uv) {
   for (Color v : {color0, color1})
     if (!is_finite(v) || !(v.x >= 0.f && v.y >= 0.f && v.z >= 0.f))
@@ -257,6 +273,9 @@ uint32_t SceneBuilder::add_material(const SourceLoc& at, const MaterialDesc& d) 
   check(d.opacity_texture, "the opacity");
   check(d.normal_map, "the normal map");
   check(d.bump_map, "the bump map");
+  for (int32_t t : {d.normal_map, d.bump_map})
+    if (t >= 0 && texture_reads_vertex_color(scene_.textures.data(), uint32_t(t)))
+      error(at, "a normal or bump map from vertex colours is not supported");
   if (!(d.opacity >= 0.f && d.opacity <= 1.f)) error(at, "opacity must lie in [0, 1]");
   if (!std::isfinite(d.bump_scale)) error(at, "the bump scale is not finite");
   if (!std::isfinite(d.normal_scale)) error(at, "the normal map's scale is not finite");
@@ -271,6 +290,24 @@ uint32_t SceneBuilder::add_material(const SourceLoc& at, const MaterialDesc& d) 
   mat.normal_y_by_uv = d.normal_y_by_uv;
   mat.alpha_cutoff = d.alpha_cutoff;
   return m;
+}
+
+bool SceneBuilder::material_reads_uv(uint32_t m) const {
+  const Material& mat = scene_.materials.at(m);
+  bool any = mat.normal_map >= 0 || mat.bump_map >= 0;
+  for (uint32_t k = 0; k < mat.num_bindings; ++k)
+    any |= texture_reads_uv(scene_.textures.data(), uint32_t(scene_.texture_bindings[mat.first_binding + k].texture));
+  return any || (mat.opacity_texture >= 0 && texture_reads_uv(scene_.textures.data(), uint32_t(mat.opacity_texture)));
+}
+
+bool SceneBuilder::material_reads_colors(uint32_t m) const {
+  const Material& mat = scene_.materials.at(m);
+  bool any = false;
+  for (uint32_t k = 0; k < mat.num_bindings; ++k)
+    any |= texture_reads_vertex_color(scene_.textures.data(),
+                                      uint32_t(scene_.texture_bindings[mat.first_binding + k].texture));
+  return any ||
+         (mat.opacity_texture >= 0 && texture_reads_vertex_color(scene_.textures.data(), uint32_t(mat.opacity_texture)));
 }
 
 MaterialDesc SceneBuilder::material(uint32_t index) const {
@@ -301,18 +338,22 @@ void SceneBuilder::check_emission(const SourceLoc& at, const AreaEmission& e) co
   for (int k = 0; k < 3; ++k)
     if (!(e.radiance[k] >= 0.f) || !std::isfinite(e.radiance[k])) error(at, "radiance must be finite and not negative");
   if (e.texture < -1 || e.texture >= int32_t(scene_.textures.size())) error(at, "the emitter names no texture");
+  // Light sampling evaluates the radiance at points it picks by their uv alone.
+  if (e.texture >= 0 && texture_reads_vertex_color(scene_.textures.data(), uint32_t(e.texture)))
+    error(at, "an emitter's radiance from vertex colours is not supported");
 }
 
 void SceneBuilder::check_shape_material(const SourceLoc& at, uint32_t material, const AreaEmission* emission,
-                                        bool has_uvs, const char* what) const {
+                                        bool has_uvs, bool has_colors, const char* what) const {
   if (material >= scene_.materials.size()) error(at, "the shape names no material");
   const Material& m = scene_.materials[material];
-  const bool textured_bsdf = m.num_bindings > 0 || m.opacity_texture >= 0 || m.normal_map >= 0 || m.bump_map >= 0;
+  const bool textured_bsdf = material_reads_uv(material), colored = material_reads_colors(material);
   if (emission) check_emission(at, *emission);
   const bool textured_emitter = emission && emission->texture >= 0;
   if ((textured_bsdf || textured_emitter) && !has_uvs)
     error(at, std::string(textured_bsdf ? "a textured material" : "a textured emitter") + " on " + what +
                   " without texture coordinates");
+  if (colored && !has_colors) error(at, std::string("a material reading vertex colours on ") + what + " without them");
   // Light sampling would pick points on the cut-away parts too.
   if (emission && m.masked()) error(at, "a masked material on an emitting shape is not supported");
 }
@@ -324,7 +365,13 @@ void SceneBuilder::check_mesh(const SourceLoc& at, TriangleMesh& mesh, uint32_t 
   if (!mesh.normals.empty() && mesh.normals.size() != nv) error(at, "the mesh has normals for some vertices only");
   if (!mesh.uvs.empty() && mesh.uvs.size() != nv)
     error(at, "the mesh has texture coordinates for some vertices only");
-  check_shape_material(at, material, emission, !mesh.uvs.empty(), "a mesh");
+  if (!mesh.colors.empty() && mesh.colors.size() != nv) error(at, "the mesh has colours for some vertices only");
+  check_shape_material(at, material, emission, !mesh.uvs.empty(), !mesh.colors.empty(), "a mesh");
+  for (size_t k = 0; k < mesh.colors.size(); ++k) {
+    const Color c = mesh.colors[k];
+    if (!(c.x >= 0.f && c.x <= 1.f && c.y >= 0.f && c.y <= 1.f && c.z >= 0.f && c.z <= 1.f))
+      error(at, "the colour of vertex " + std::to_string(k) + " is not within [0, 1]");
+  }
   for (size_t k = 0; k < nv; ++k)
     if (!is_finite(mesh.positions[k]) || max_abs(mesh.positions[k]) > kMaxCoordinate)
       error(at, "vertex " + std::to_string(k) + " is not finite or lies beyond 1e18");
@@ -361,6 +408,7 @@ void SceneBuilder::check_room(const SourceLoc& at, const TriangleMesh& mesh) con
   add(scene_.positions, nv);
   if (!mesh.normals.empty() || !scene_.normals.empty()) add(scene_.normals, nv);
   if (!mesh.uvs.empty() || !scene_.uvs.empty()) add(scene_.uvs, nv);
+  if (!mesh.colors.empty() || !scene_.colors.empty()) add(scene_.colors, nv);
   add(scene_.indices, 3 * nt);
   add(scene_.tri_material, nt);
   add(scene_.tri_emitter, nt);
@@ -380,12 +428,12 @@ void SceneBuilder::add_mesh(const SourceLoc& at, TriangleMesh mesh, uint32_t mat
     for (Vec3& n : mesh.normals) n = -n;
   }
   scene_.add_mesh(mesh.positions, mesh.normals, mesh.indices, material, emission ? &emission->radiance : nullptr,
-                  mesh.uvs, emission ? emission->texture : -1, emission && emission->two_sided);
+                  mesh.uvs, emission ? emission->texture : -1, emission && emission->two_sided, mesh.colors);
 }
 
 void SceneBuilder::add_sphere(const SourceLoc& at, Vec3 center, float radius, uint32_t material,
                               const AreaEmission* emission, bool flip_normals, const Matrix4& orientation) {
-  check_shape_material(at, material, emission, true, "a sphere");
+  check_shape_material(at, material, emission, true, false, "a sphere");
   if (emission && emission->two_sided) error(at, "a two-sided emitting sphere is not supported");
   if (!(radius > 0.f) || !std::isfinite(radius)) error(at, "the sphere's radius must be finite and positive");
   if (!is_finite(center) || max_abs(center) + radius > kMaxCoordinate)
@@ -514,7 +562,7 @@ void SceneBuilder::resolve_instances() {
     for (size_t j = 0; j < o.meshes.size(); ++j) {
       const TriangleMesh& m = o.meshes[j];
       check_room(o.at[j], m);
-      scene_.add_mesh(m.positions, m.normals, m.indices, o.materials[j], nullptr, m.uvs);
+      scene_.add_mesh(m.positions, m.normals, m.indices, o.materials[j], nullptr, m.uvs, -1, false, m.colors);
       for (const Vec3& v : m.positions) lo[k] = vmin(lo[k], v), hi[k] = vmax(hi[k], v);
     }
   }
@@ -655,13 +703,14 @@ int32_t SceneBuilder::add_mix(const SourceLoc& at, MixOp op, TextureOperand a, T
     error(at, e.what());
   }
   // The mean over the unit square of texture coordinates (a mix has no
-  // texels of its own), at the centres of a 256² grid.
+  // texels of its own), at the centres of a 256² grid, vertex colours at
+  // their assumed mean (add_vertex_color_texture).
   const TextureView v = texture_view();
   constexpr int kGrid = 256;
   double sum[3] = {0, 0, 0};
   for (int j = 0; j < kGrid; ++j)
     for (int i = 0; i < kGrid; ++i) {
-      const Color c = v.eval(uint32_t(index), {(i + 0.5f) / kGrid, (j + 0.5f) / kGrid});
+      const Color c = v.eval(uint32_t(index), {(i + 0.5f) / kGrid, (j + 0.5f) / kGrid}, {0.5f, 0.5f, 0.5f});
       for (int k = 0; k < 3; ++k) sum[k] += c[k];
     }
   for (int k = 0; k < 3; ++k) out.mean[k] = float(sum[k] / (kGrid * kGrid));

@@ -31,6 +31,7 @@ struct TriangleMesh {
   std::vector<Vec3> normals;  // empty, or one per position
   std::vector<Vec2> uvs;      // empty, or one per position (texture.h's convention: v = 0 at the image's top)
   std::vector<uint32_t> indices;
+  std::vector<Color> colors;  // empty, or one per position: vertex colours, linear, in [0, 1]
 };
 
 // An area emitter on a shape: a constant radiance, or a texture whose mean
@@ -95,6 +96,10 @@ class SceneBuilder {
   // error: a file that fails to read fails the call that names it.
   void read_images_ahead(const std::vector<std::string>& paths);
   int32_t add_checkerboard(const SourceLoc& at, Color color0, Color color1, const UvTransform& to_uv);
+  // The shapes' vertex colours times `scale` (Mitsuba's mesh_attribute
+  // vertex_color, glTF's COLOR_0). A material reading them goes only on
+  // meshes that have them; no emitter reads them.
+  int32_t add_vertex_color_texture(const SourceLoc& at, Color scale = {1.f, 1.f, 1.f});
   // An 8-bit image already in memory (glTF's embedded and binary-chunk
   // images): packed RGBA texels, rows top to bottom.
   int32_t add_image8(const SourceLoc& at, BitmapTexture bitmap, const UvTransform& to_uv,
@@ -120,13 +125,18 @@ class SceneBuilder {
   // ---- materials ----
   uint32_t add_material(const SourceLoc& at, const MaterialDesc& desc);
   MaterialDesc material(uint32_t index) const;
+  // Whether material m reads texture coordinates (a bitmap, a checkerboard,
+  // a normal or bump map), and whether it reads vertex colours.
+  bool material_reads_uv(uint32_t m) const;
+  bool material_reads_colors(uint32_t m) const;
   // Mitsuba's default material: diffuse, reflectance 0.5 (one shared index).
   uint32_t default_material();
 
   // ---- shapes (world space) ----
   // Checks: whole triangles, indices in range, finite positions within 1e18,
-  // normals and uvs one per position, texture coordinates where the material
-  // or the emitter is textured, no masked emitter.
+  // normals, uvs and colours one per position, texture coordinates where the
+  // material or the emitter is textured, vertex colours where the material
+  // reads them, no masked emitter.
   void add_mesh(const SourceLoc& at, TriangleMesh mesh, uint32_t material, const AreaEmission* emission = nullptr,
                 bool flip_normals = false);
   // A sphere: `orientation`'s linear part (a rotation, perhaps a mirror,
@@ -175,7 +185,7 @@ class SceneBuilder {
   void check_room(const SourceLoc& at, const TriangleMesh& mesh) const;
   void resolve_instances();
   void check_shape_material(const SourceLoc& at, uint32_t material, const AreaEmission* emission,
-                            bool has_uvs, const char* what) const;
+                            bool has_uvs, bool has_colors, const char* what) const;
   int32_t push_texture_stats(int32_t index, const std::optional<TextureStats>& stats);
   TextureStats bitmap_stats(const Texture& texture) const;
   TextureView texture_view() const;  // of the textures added so far

@@ -11,13 +11,13 @@ namespace {
 // A field added to Scene must be added to fields() below: this trips first
 // (on the x86-64 libstdc++ build that CI runs).
 #if defined(__x86_64__) && defined(__GLIBCXX__)
-static_assert(sizeof(Scene) == 800, "Scene changed: list its new fields in serialize.cpp's fields()");
+static_assert(sizeof(Scene) == 824, "Scene changed: list its new fields in serialize.cpp's fields()");
 #endif
 
 // Every member of a Scene, loaded and compiled, once for both directions.
 template <class S, class F>
 void fields(S& s, F&& f) {
-  f(s.positions), f(s.normals), f(s.uvs), f(s.indices), f(s.tri_material), f(s.tri_emitter), f(s.spheres);
+  f(s.positions), f(s.normals), f(s.uvs), f(s.colors), f(s.indices), f(s.tri_material), f(s.tri_emitter), f(s.spheres);
   f(s.materials), f(s.texture_bindings), f(s.lights), f(s.textures), f(s.texels8), f(s.texelsf), f(s.srgb_table);
   f(s.camera), f(s.fov_axis), f(s.settings), f(s.objects), f(s.instances), f(s.flattened_instances), f(s.warnings);
   f(s.light_alias), f(s.light_pmf), f(s.light_bvh.nodes), f(s.light_bvh.trails), f(s.light_bvh.infinite);

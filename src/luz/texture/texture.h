@@ -1,5 +1,5 @@
 // Textures for both devices: a tagged union over the models (a bitmap of
-// 8-bit or float texels, a checkerboard), the texel arrays they address by
+// 8-bit or float texels, a checkerboard, the vertex colours), the texel arrays they address by
 // offset, and the texture-or-constant parameter that materials and lights
 // hold. No containers, no virtuals: TextureView holds plain pointers that are
 // valid on the CPU or copied to the GPU as they are.
@@ -54,8 +54,8 @@ struct CheckerboardTexture {
 };
 
 // pbrt-v4's `mix` and `scale` of textures: (1 - w) a + w b, or a b, where a,
-// b and w are each a leaf texture (a bitmap or a checkerboard: a, b its
-// colour, w its luminance) or, at index -1, a constant. One level only: the
+// b and w are each a leaf texture (a bitmap, a checkerboard or the vertex
+// colours: a, b its colour, w its luminance) or, at index -1, a constant. One level only: the
 // loader refuses a mix of mixes, so evaluation needs no recursion.
 enum class MixOp : uint32_t { Lerp, Product };
 struct MixTexture {
@@ -65,7 +65,12 @@ struct MixTexture {
   Color ca, cb;
 };
 
-enum class TextureType : uint32_t { Bitmap, Checkerboard, Mix };
+// Mitsuba's `mesh_attribute` of name vertex_color (glTF's COLOR_0): the
+// surface's vertex colours, interpolated at the hit (SceneView::hit_color;
+// white where the hit's mesh has none).
+struct VertexColorTexture {};
+
+enum class TextureType : uint32_t { Bitmap, Checkerboard, Mix, VertexColor };
 
 struct Texture {
   TextureType type = TextureType::Bitmap;
@@ -76,11 +81,13 @@ struct Texture {
     BitmapTexture bitmap;
     CheckerboardTexture checkerboard;
     MixTexture mix;
+    VertexColorTexture vertex_color;
   };
   LUZ_INLINE Texture() : bitmap() {}
   LUZ_INLINE Texture(const BitmapTexture& m) : type(TextureType::Bitmap), bitmap(m) {}
   LUZ_INLINE Texture(const CheckerboardTexture& m) : type(TextureType::Checkerboard), checkerboard(m) {}
   LUZ_INLINE Texture(const MixTexture& m) : type(TextureType::Mix), mix(m) {}
+  LUZ_INLINE Texture(const VertexColorTexture& m) : type(TextureType::VertexColor), bitmap() { (void)m; }
 };
 
 // R in the low byte, then G, B, A.
@@ -194,8 +201,10 @@ struct TextureView {
     return (c00 * (1.f - fx) + c10 * fx) * (1.f - fy) + (c01 * (1.f - fx) + c11 * fx) * fy;
   }
 
-  // A bitmap's or checkerboard's linear RGB value at uv.
-  LUZ_INLINE Color leaf(const Texture& tex, Vec2 uv) const {
+  // A leaf's (a bitmap's, checkerboard's or the vertex colours') linear RGB
+  // value at a point of texture coordinates uv and vertex colour vc.
+  LUZ_INLINE Color leaf(const Texture& tex, Vec2 uv, Color vc) const {
+    if (__builtin_expect(tex.type == TextureType::VertexColor, 0)) return tex.scale * vc + tex.offset;
     const Vec2 st = tex.to_uv.apply(uv);
     if (tex.type == TextureType::Checkerboard) {
       const bool a = st.x - floorf(st.x) > 0.5f, b = st.y - floorf(st.y) > 0.5f;
@@ -205,16 +214,17 @@ struct TextureView {
   }
 
   // Texture t's linear RGB value at the surface point of texture coordinates
-  // uv (texture_eval: out of line on the GPU).
-  LUZ_INLINE Color eval(uint32_t t, Vec2 uv) const;
-  LUZ_INLINE Color eval_inline(uint32_t t, Vec2 uv) const {
+  // uv and vertex colour vc (white where there is none: lights' textures)
+  // (texture_eval: out of line on the GPU).
+  LUZ_INLINE Color eval(uint32_t t, Vec2 uv, Color vc = {1.f, 1.f, 1.f}) const;
+  LUZ_INLINE Color eval_inline(uint32_t t, Vec2 uv, Color vc) const {
     const Texture& tex = list[t];
-    if (__builtin_expect(tex.type != TextureType::Mix, 1)) return leaf(tex, uv);
+    if (__builtin_expect(tex.type != TextureType::Mix, 1)) return leaf(tex, uv, vc);
     const MixTexture& m = tex.mix;
-    const Color a = m.a < 0 ? m.ca : leaf(list[m.a], uv);
-    const Color b = m.b < 0 ? m.cb : leaf(list[m.b], uv);
+    const Color a = m.a < 0 ? m.ca : leaf(list[m.a], uv, vc);
+    const Color b = m.b < 0 ? m.cb : leaf(list[m.b], uv, vc);
     if (m.op == MixOp::Product) return tex.scale * (a * b) + tex.offset;
-    const float w = m.amount < 0 ? m.w : luminance(leaf(list[m.amount], uv));
+    const float w = m.amount < 0 ? m.w : luminance(leaf(list[m.amount], uv, vc));
     return tex.scale * (a * (1.f - w) + b * w) + tex.offset;
   }
 
@@ -271,10 +281,29 @@ struct TextureView {
   }
 };
 
+// Whether texture t reads texture coordinates, and whether it reads vertex
+// colours (itself or one of a mix's operands).
+inline bool texture_reads_uv(const Texture* list, uint32_t t) {
+  const Texture& x = list[t];
+  if (x.type != TextureType::Mix) return x.type != TextureType::VertexColor;
+  const MixTexture& m = x.mix;
+  for (int32_t k : {m.a, m.b, m.amount})
+    if (k >= 0 && list[k].type != TextureType::VertexColor) return true;
+  return false;
+}
+inline bool texture_reads_vertex_color(const Texture* list, uint32_t t) {
+  const Texture& x = list[t];
+  if (x.type != TextureType::Mix) return x.type == TextureType::VertexColor;
+  const MixTexture& m = x.mix;
+  for (int32_t k : {m.a, m.b, m.amount})
+    if (k >= 0 && list[k].type == TextureType::VertexColor) return true;
+  return false;
+}
+
 // TextureView::eval's one copy in a CUDA kernel (inline on the CPU); the
 // view by value, so a kernel's parameters need no local copy for an address.
-LUZ_DEVICE_NOINLINE Color texture_eval(TextureView v, uint32_t t, Vec2 uv) { return v.eval_inline(t, uv); }
-LUZ_INLINE Color TextureView::eval(uint32_t t, Vec2 uv) const { return texture_eval(*this, t, uv); }
+LUZ_DEVICE_NOINLINE Color texture_eval(TextureView v, uint32_t t, Vec2 uv, Color vc) { return v.eval_inline(t, uv, vc); }
+LUZ_INLINE Color TextureView::eval(uint32_t t, Vec2 uv, Color vc) const { return texture_eval(*this, t, uv, vc); }
 
 // A texture-or-constant colour: `value` where texture < 0 (and, for a
 // texture, its mean: what lobe-sampling weights use, as Mitsuba's mean()).

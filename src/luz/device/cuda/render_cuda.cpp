@@ -330,6 +330,7 @@ Film render_cuda(const Scene& scene, const CudaRenderOptions& options, RenderSta
   dev.tri_material = up.upload(scene.tri_material, "triangle materials");
   dev.tri_emitter = up.upload(scene.tri_emitter, "triangle emitters");
   dev.uvs = up.upload(scene.uvs, "texture coordinates");  // null when empty: no textures
+  dev.colors = up.upload(scene.colors, "vertex colours");  // null when empty: none
   dev.tri_normals = nullptr;  // the GPU computes each hit's normal (not measured there with a table yet)
   dev.spheres = up.upload(scene.spheres, "spheres");
   dev.instances.list = up.upload(scene.instances, "instances");

@@ -212,8 +212,8 @@ class MitsubaParser {
   void parse_shapegroup(pugi::xml_node n);
   void parse_instance(pugi::xml_node n);
   void add_shape(pugi::xml_node n, int64_t object);
-  void read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, std::vector<Vec3>& pos,
-                     std::vector<Vec3>& nrm, std::vector<Vec2>& uv, std::vector<uint32_t>& idx);
+  void read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, bool colored, std::vector<Vec3>& pos,
+                     std::vector<Vec3>& nrm, std::vector<Vec2>& uv, std::vector<Color>& col, std::vector<uint32_t>& idx);
 
   std::string path_;
   Defines defines_;

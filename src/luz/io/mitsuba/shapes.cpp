@@ -155,11 +155,13 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
   // built-in shapes have them (the sphere's are computed at each hit),
   // meshes where their files do, or else each face's barycentrics (below).
   // Only a textured shape keeps them (see read_obj).
+  // Vertex colours (mesh_attribute) likewise: kept where the material reads them.
   const Material& mat = builder_.scene().materials[size_t(material)];
-  const bool textured_bsdf = mat.num_bindings > 0 || mat.opacity_texture >= 0 || mat.normal_map >= 0 || mat.bump_map >= 0;
-  const bool textured = textured_bsdf || area.texture >= 0;
+  const bool textured = builder_.material_reads_uv(uint32_t(material)) || area.texture >= 0;
+  const bool colored = builder_.material_reads_colors(uint32_t(material));
   std::vector<Vec3> pos, nrm;
   std::vector<Vec2> uv;
+  std::vector<Color> col;
   std::vector<uint32_t> idx;
   // Built-in shapes whose faces are flat: the normal given by the normal
   // transform sets the winding, then the geometric normal is exact.
@@ -257,7 +259,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
       const bool flip_uv = p.get_bool("flip_tex_coords", true);
       p.check_all_used();
       if (full.extension() == ".ply") {  // mesh_file's fallback: the same mesh as PLY
-        read_mesh_ply(full, flip_uv, textured, pos, nrm, uv, idx);
+        read_mesh_ply(full, flip_uv, textured, colored, pos, nrm, uv, col, idx);
       } else {
         const std::optional<std::shared_ptr<const ObjFile>> ahead = objs_ahead_.take(full.string());
         ObjMesh mesh = obj_mesh(ahead ? **ahead : *read_obj_file(full.string()),
@@ -273,7 +275,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
       // Mitsuba 3's ply flips v by default too (flip_tex_coords, default true).
       const bool flip_uv = p.get_bool("flip_tex_coords", true);
       p.check_all_used();
-      read_mesh_ply(full, flip_uv, textured, pos, nrm, uv, idx);
+      read_mesh_ply(full, flip_uv, textured, colored, pos, nrm, uv, col, idx);
     } else {
       const long index = p.get_int("shape_index", 0);
       p.check_all_used();
@@ -286,10 +288,13 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
       pos = std::move(mesh.positions);
       nrm = std::move(mesh.normals);
       if (textured) uv = std::move(mesh.uvs);  // as stored: Mitsuba's serialized plugin does not flip
+      if (colored) col = std::move(mesh.colors);
       idx = std::move(mesh.indices);
       face_normals = face_normals || mesh.face_normals;
     }
     if (face_normals) nrm.clear();
+    if (colored && col.empty())
+      error(n, "the material reads vertex colours (mesh_attribute), and '" + file + "' has none");
     if (textured && uv.empty()) {
       // Mitsuba 3 takes such a mesh's tangents from the normal alone, which
       // a normal or bump map would need here too.
@@ -307,7 +312,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
   for (Vec3& v : nrm) v = to_world.normal(v);
   // From the world's positions and the file's winding, as Mitsuba does.
   if (!analytic && !face_normals && (nrm.empty() || smooth_angle >= 0)) {
-    compute_vertex_normals(pos, idx, uv, nrm, smooth_angle);
+    compute_vertex_normals(pos, idx, uv, nrm, smooth_angle, &col);
     // Planar faces that share no vertex across an edge (a box's walls):
     // every normal is its faces' own, which flat shading gives exactly and
     // sooner.
@@ -318,18 +323,22 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
     // of its second and third vertices. Every face gets its own three
     // vertices, at uv (0, 0), (1, 0), (0, 1), after the smooth normals.
     std::vector<Vec3> face_pos, face_nrm;
+    std::vector<Color> face_col;
     face_pos.reserve(idx.size());
     face_nrm.reserve(nrm.empty() ? 0 : idx.size());
+    face_col.reserve(col.empty() ? 0 : idx.size());
     uv.clear();
     uv.reserve(idx.size());
     for (size_t k = 0; k < idx.size(); ++k) {
       face_pos.push_back(pos[idx[k]]);
       if (!nrm.empty()) face_nrm.push_back(nrm[idx[k]]);
+      if (!col.empty()) face_col.push_back(col[idx[k]]);
       uv.push_back(k % 3 == 0 ? Vec2{0, 0} : k % 3 == 1 ? Vec2{1, 0} : Vec2{0, 1});
       idx[k] = uint32_t(k);
     }
     pos = std::move(face_pos);
     nrm = std::move(face_nrm);
+    col = std::move(face_col);
   }
   for (size_t k = 0; k + 2 < idx.size(); k += 3) {
     Vec3 g = cross(pos[idx[k + 1]] - pos[idx[k]], pos[idx[k + 2]] - pos[idx[k]]);
@@ -340,19 +349,21 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
   if (flip)
     for (Vec3& v : nrm) v = -v;
   if (analytic && flat) nrm.clear();  // flat faces: the geometric normal is exact
-  TriangleMesh mesh{std::move(pos), std::move(nrm), std::move(uv), std::move(idx)};
+  TriangleMesh mesh{std::move(pos), std::move(nrm), std::move(uv), std::move(idx), std::move(col)};
   if (object >= 0) builder_.add_object_mesh(loc(n), uint32_t(object), std::move(mesh), uint32_t(material));
   else builder_.add_mesh(loc(n), std::move(mesh), uint32_t(material), emission);
 }
 
 // A PLY mesh's arrays; v flipped (1 - v) when flip_uv.
-void MitsubaParser::read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, std::vector<Vec3>& pos,
-                                  std::vector<Vec3>& nrm, std::vector<Vec2>& uv, std::vector<uint32_t>& idx) {
+void MitsubaParser::read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, bool colored,
+                                  std::vector<Vec3>& pos, std::vector<Vec3>& nrm, std::vector<Vec2>& uv,
+                                  std::vector<Color>& col, std::vector<uint32_t>& idx) {
   std::optional<PlyMesh> ahead = plys_ahead_.take(full.string());
   PlyMesh mesh = ahead ? std::move(*ahead) : read_ply(full.string());
   pos = std::move(mesh.positions);
   nrm = std::move(mesh.normals);
   if (textured) uv = std::move(mesh.uvs);
+  if (colored) col = std::move(mesh.colors);
   if (flip_uv)
     for (Vec2& t : uv) t.y = 1.f - t.y;
   idx = std::move(mesh.indices);

@@ -1,4 +1,4 @@
-// The Mitsuba reader's textures (bitmap, checkerboard) and the files a scene
+// The Mitsuba reader's textures (bitmap, checkerboard, mesh_attribute) and the files a scene
 // names (see parser.h).
 #include <cmath>
 
@@ -88,10 +88,21 @@ UvTransform MitsubaParser::uv_transform(pugi::xml_node t, Props& p) {
 
 int32_t MitsubaParser::parse_texture(pugi::xml_node t, bool load) {
   std::string type = attr(t, "type");
-  if (type != "bitmap" && type != "checkerboard")
-    error(t, "unknown texture '" + type + "' (supported: bitmap, checkerboard)");
+  if (type != "bitmap" && type != "checkerboard" && type != "mesh_attribute")
+    error(t, "unknown texture '" + type + "' (supported: bitmap, checkerboard, mesh_attribute)");
   check_children(t, {});
   Props p(this, t);
+  if (type == "mesh_attribute") {
+    // The shape's vertex colours (its PLY file's r, g, b or red, green, blue;
+    // a serialized file's colours), times `scale`.
+    const std::string name = p.get_string("name", "");
+    if (name != "vertex_color")
+      error(t, "mesh attribute '" + name + "' is not supported (supported: vertex_color)");
+    const double scale = p.get_float("scale", 1.0);
+    p.check_all_used();
+    if (!load) return -1;
+    return builder_.add_vertex_color_texture(loc(t), Color{1.f, 1.f, 1.f} * float(scale));
+  }
   const UvTransform to_uv = uv_transform(t, p);
   if (type == "checkerboard") {
     // Mitsuba 3's colours may be textures themselves, looked up at the
