@@ -132,8 +132,9 @@ void affine_uvs(Scene& s) {
 
 // The Cornell box with every Lambertian material textured, in turn by a 5×3
 // sRGB bitmap (repeat), the same texels as a float bitmap (mirror), a 4×2
-// linear bitmap (clamp, nearest) and a checkerboard, each through its own
-// to_uv (affine_uvs).
+// linear bitmap (clamp, nearest) and a checkerboard times the vertex
+// colours (an affine function of the position), each through its own to_uv
+// (affine_uvs).
 Scene textured_cornell(int res, uint32_t spp, uint64_t seed) {
   Scene s = cornell(res, spp, seed);
   std::vector<uint32_t> img;
@@ -156,8 +157,17 @@ Scene textured_cornell(int res, uint32_t spp, uint64_t seed) {
   tex.push_back(int32_t(s.add_bitmap(b, {1.5f, 0.f, -0.2f, 0.f, 1.2f, -0.1f}, small)));
   Texture checker{CheckerboardTexture{{0.7f, 0.2f, 0.1f}, {0.1f, 0.3f, 0.6f}}};
   checker.to_uv = {3.f, 0.f, 0.f, 0.f, 3.f, 0.f};
-  tex.push_back(int32_t(s.add_texture(checker)));
+  MixTexture product;
+  product.op = MixOp::Product;
+  product.a = int32_t(s.add_texture(checker));
+  product.b = int32_t(s.add_texture(Texture(VertexColorTexture{})));
+  tex.push_back(int32_t(s.add_texture(Texture(product))));
   affine_uvs(s);
+  const Vec3 ext = s.bounds_max - s.bounds_min;
+  for (const Vec3& q : s.positions) {
+    const Vec3 p = (q - s.bounds_min) * (1.f / max_component(ext));
+    s.colors.push_back({0.2f + 0.7f * p.x, 0.9f - 0.5f * p.y, 0.3f + 0.4f * p.z});
+  }
   size_t textured = 0;
   for (Material& m : s.materials)
     if (m.bsdf.type == BsdfType::Diffuse) {

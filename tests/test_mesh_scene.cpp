@@ -121,6 +121,40 @@ TEST_F(MeshSceneFiles, PlyVertexColoursAreItsReflectance) {
   EXPECT_EQ(plain.materials[plain.tri_material[0]].bsdf.diffuse.reflectance.y, 0.5f);
 }
 
+// OBJ vertex colours (`v x y z r g b`, sRGB-encoded as exporters write
+// them): the faces without a material take them, decoded and interpolated,
+// as their diffuse reflectance; a face with an MTL material keeps its Kd,
+// with a warning; a `v` line without a colour is white (warned), one whose
+// colour leaves [0, 1] is an error at its line.
+TEST_F(MeshSceneFiles, ObjVertexColoursOnFacesWithoutAMaterial) {
+  auto srgb = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
+  write("m.mtl", "newmtl red\nKd 0.6 0.1 0.1\n");
+  luz::Scene s = luz::load_scene(write("c.obj", "mtllib m.mtl\nv 0 0 0 1 0 0.2\nv 1 0 0 0 0.5 0.2\nv 0 1 0 0 0 1\nv 1 1 0\n"
+                                                "f 1 2 3\nusemtl red\nf 2 4 3\n"));
+  EXPECT_TRUE(luz_test::has_warning(s, "1 vertices lack a colour where others have one: white"));
+  EXPECT_TRUE(luz_test::has_warning(s, "1 triangles have an MTL material: the vertex colours are not used there"));
+  const luz::SceneView v = s.view();
+  int seen = 0;
+  for (uint32_t t = 0; t < s.num_triangles(); ++t) {
+    luz::Hit hit;
+    hit.prim = t;
+    hit.u = 0.25f, hit.v = 0.5f;
+    const luz::Bsdf b = v.materials.bsdf(s.tri_material[t], v.textures, {}, v.hit_color(hit));
+    const luz::Vec3 p = s.positions[s.indices[3 * t]];
+    if (p.x == 0.f && p.y == 0.f) {  // the first face: corners (1, 0, 0.2), (0, 0.5, 0.2), (0, 0, 1) in sRGB
+      ++seen;
+      EXPECT_NEAR(b.diffuse.reflectance.x, 0.25 * srgb(1), 1e-6);
+      EXPECT_NEAR(b.diffuse.reflectance.y, 0.25 * srgb(0.5), 1e-6);
+      EXPECT_NEAR(b.diffuse.reflectance.z, 0.25 * srgb(0.2) + 0.25 * srgb(0.2) + 0.5 * srgb(1), 1e-6);
+    } else {
+      EXPECT_EQ(b.phong.kd.x, 0.6f);  // the MTL's modified Phong
+    }
+  }
+  EXPECT_EQ(seen, 1);
+  luz_test::expect_load_refused(write("bad.obj", "v 0 0 0\nv 1 0 0 0.5 1.5 0\nv 0 1 0\nf 1 2 3\n"), "bad.obj:2",
+                                "vertex colour '1.5' is not within [0, 1]");
+}
+
 TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {
   luz::Scene s = three_faces("m", "newmtl mirror\nKd 0.01 0.01 0.01\nKs 0.9 0.8 0.7\nillum 5\n"
                                   "newmtl glass\nKs 0.3 0.3 0.3\nTf 0.5 0.6 0.7\nNi 1.7\nillum 7\n"

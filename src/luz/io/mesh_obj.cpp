@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "luz/io/error.h"
+#include "luz/texture/texture.h"
 
 namespace luz {
 
@@ -98,6 +99,8 @@ class ObjChecker {
   // Each face's number of corners, in the file's order (tinyobjloader keeps
   // them modulo 256).
   const std::vector<uint32_t>& face_sizes() const { return face_sizes_; }
+  // How many `v` lines give a colour (x y z r g b: the common extension).
+  size_t colored_vertices() const { return colored_; }
 
   void check() {
     // Pass 1 counts the vertex data, so positive face indices may refer ahead;
@@ -127,6 +130,14 @@ class ObjChecker {
           if (tok.size() - 1 < need)
             throw InputError(path_, line_no, "'" + std::string(key) + "' needs " + std::to_string(need) + " numbers");
           for (size_t k = 1; k < tok.size(); ++k) number(tok[k], line_no, key);
+          if (key == "v" && tok.size() == 7) {
+            ++colored_;
+            for (size_t k = 4; k < 7; ++k) {
+              const double c = std::strtod(std::string(tok[k]).c_str(), nullptr);
+              if (!(c >= 0.0 && c <= 1.0))
+                throw InputError(path_, line_no, "vertex colour '" + std::string(tok[k]) + "' is not within [0, 1]");
+            }
+          }
         } else if (key == "f" && pass == 1) {
           if (tok.size() < 4) throw InputError(path_, line_no, "a face needs at least 3 vertices");
           for (size_t k = 1; k < tok.size(); ++k) face_vertex(tok[k], line_no, v, vt, vn);
@@ -178,6 +189,7 @@ class ObjChecker {
   const std::string& path_;
   const std::string& text_;
   size_t total_v_ = 0, total_vt_ = 0, total_vn_ = 0;
+  size_t colored_ = 0;
   std::vector<uint32_t> face_sizes_;
 };
 
@@ -375,6 +387,7 @@ struct ObjFile {
   std::vector<ObjWarning> warnings;
   MtlMaps maps;    // the MTL files' map statements as Luz reads them
   MtlGreys greys;  // and their one-number colours
+  size_t colored_vertices = 0;  // `v` lines with a colour (then attrib.colors holds one per vertex)
   // The faces as triangles (triangulate()), each with its face's material
   // and smoothing group.
   struct Triangle {
@@ -464,7 +477,8 @@ std::shared_ptr<ObjFile> parse_obj(const std::string& path, bool with_materials)
   if (with_materials) check_mtl_files(path, text, file->warnings, file->maps, file->greys, all_mtl);
   tinyobj::ObjReaderConfig config;
   config.triangulate = false;  // triangulate() below
-  config.vertex_color = false;
+  file->colored_vertices = checker.colored_vertices();
+  config.vertex_color = file->colored_vertices > 0;  // white where a `v` line has none
   tinyobj::ObjReader& reader = file->reader;
   // From the text read already; materials from all_mtl (empty without materials), read at the first mtllib.
   if (!reader.ParseFromString(text, all_mtl, config)) {
@@ -483,6 +497,8 @@ std::shared_ptr<ObjFile> parse_obj(const std::string& path, bool with_materials)
   for (float x : attrib.texcoords)
     if (!std::isfinite(x)) throw InputError(path, 0, "texture coordinate is not a finite number");
   const size_t nv = attrib.vertices.size() / 3, nn = attrib.normals.size() / 3, nt = attrib.texcoords.size() / 2;
+  if (file->colored_vertices > 0 && attrib.colors.size() != attrib.vertices.size())
+    throw InputError(path, 0, "the vertex colours tinyobjloader read differ from the file's 'v' lines");
   std::vector<Vec3> polygon;
   std::vector<std::array<uint32_t, 3>> tris;
   const std::vector<uint32_t>& sizes = checker.face_sizes();
@@ -597,6 +613,11 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoot
   }
   const bool any_normals = !attrib.normals.empty() || !group_normal.empty();
   size_t flat_faces = 0, bare_faces = 0;
+  // Vertex colours: sRGB-encoded, as exporters write them (Blender's, MeshLab's, three.js's).
+  const bool colored = file.colored_vertices > 0;
+  if (colored && file.colored_vertices < attrib.vertices.size() / 3)
+    mesh.warnings.push_back({path, 0, std::to_string(attrib.vertices.size() / 3 - file.colored_vertices) +
+                                          " vertices lack a colour where others have one: white"});
 
   // De-indexing: one vertex per distinct (position, normal, uv) index
   // triple; a corner without a normal is its face's own vertex (normal
@@ -651,6 +672,10 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoot
         if (any_texcoords) {
           const float* t = has_uv ? &attrib.texcoords[2 * size_t(idx.texcoord_index)] : nullptr;
           mesh.texcoords.push_back(t ? Vec2{t[0], 1.f - t[1]} : Vec2{0.f, 1.f});  // vt (0, 0), v flipped
+        }
+        if (colored) {
+          const float* c = &attrib.colors[3 * size_t(idx.vertex_index)];
+          mesh.colors.push_back({float(srgb_to_linear(c[0])), float(srgb_to_linear(c[1])), float(srgb_to_linear(c[2]))});
         }
       }
       mesh.indices.push_back(it->second);

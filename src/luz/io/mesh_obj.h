@@ -40,6 +40,10 @@ struct ObjMesh {
   // Texture coordinates, empty or one per position, with v flipped (1 - vt.v)
   // as Mitsuba's OBJ loader does by default (texture.h's convention).
   std::vector<Vec2> texcoords;
+  // Vertex colours (`v x y z r g b`), empty or one per position: linear,
+  // decoded from the sRGB values exporters write; white where a `v` line
+  // has none.
+  std::vector<Color> colors;
   std::vector<uint32_t> indices;
   std::vector<int> face_material;  // per triangle, -1: none
   std::vector<ObjMaterial> materials;

@@ -1,6 +1,7 @@
 // A mesh file as a whole scene: OBJ (its MTL materials as Luz materials,
-// Ke as area lights) or PLY (diffuse, of its vertex colours where it has
-// them, else grey), a camera framing the bounds, and,
+// Ke as area lights; faces without a material diffuse, of the vertex
+// colours where the file has them, else grey) or PLY (likewise), a camera
+// framing the bounds, and,
 // when nothing in the file emits, a uniform white sky so that the model shows.
 #include <cmath>
 #include <cstdio>
@@ -156,6 +157,20 @@ MaterialDesc obj_material(SceneBuilder& builder, const SourceLoc& at, const ObjM
   return d;
 }
 
+// The material of a mesh file's faces that name none: diffuse (two-sided),
+// of the vertex colours where the file has them (as MeshLab and Blender
+// show them), else grey.
+MaterialDesc default_material(SceneBuilder& builder, bool colored) {
+  MaterialDesc d;
+  d.bsdf = Bsdf::make_diffuse({0.5f, 0.5f, 0.5f}, true);
+  if (colored) {
+    const int32_t t = builder.add_vertex_color_texture({builder.file(), 0});
+    d.bindings.push_back({t, BsdfPart::Front, BsdfParam::Reflectance});
+    d.bsdf.diffuse.reflectance = builder.texture_stats(t).mean;
+  }
+  return d;
+}
+
 }  // namespace
 
 Scene load_obj_scene(const std::string& path) {
@@ -166,12 +181,11 @@ Scene load_obj_scene(const std::string& path) {
   std::vector<uint32_t> mat_index;
   for (const ObjMaterial& m : mesh.materials)
     mat_index.push_back(builder.add_material(at, obj_material(builder, at, m, !mesh.texcoords.empty())));
-  MaterialDesc fallback;
-  fallback.bsdf = Bsdf::make_diffuse({0.5f, 0.5f, 0.5f}, true);
-  const uint32_t fallback_index = builder.add_material(at, fallback);
+  const uint32_t fallback_index = builder.add_material(at, default_material(builder, !mesh.colors.empty()));
   // Faces grouped by material, each group one mesh (sharing the positions).
   const size_t nmat = mesh.materials.size();
   bool has_emitter = false;
+  size_t colored_faces = 0;  // the faces without a material, which show the vertex colours
   for (size_t g = 0; g <= nmat; ++g) {
     TriangleMesh part;
     for (size_t f = 0; f < mesh.face_material.size(); ++f) {
@@ -184,26 +198,23 @@ Scene load_obj_scene(const std::string& path) {
     part.positions = mesh.positions;
     part.normals = mesh.normals;
     part.uvs = mesh.texcoords;
+    if (g == nmat) part.colors = mesh.colors, colored_faces = part.indices.size() / 3;
     AreaEmission area;
     const bool emits = g < nmat && !is_black(mesh.materials[g].ke);
     if (emits) area.radiance = mesh.materials[g].ke;
     has_emitter |= emits;
     builder.add_mesh(at, std::move(part), g < nmat ? mat_index[g] : fallback_index, emits ? &area : nullptr);
   }
+  if (!mesh.colors.empty() && colored_faces < mesh.face_material.size())
+    builder.warn(at, std::to_string(mesh.face_material.size() - colored_faces) +
+                         " triangles have an MTL material: the vertex colours are not used there");
   return finish_mesh_scene(builder, has_emitter);
 }
 
 Scene load_ply_scene(const std::string& path) {
   PlyMesh ply = read_ply(path);
   SceneBuilder builder(path);
-  MaterialDesc d;
-  d.bsdf = Bsdf::make_diffuse({0.5f, 0.5f, 0.5f}, true);
-  if (!ply.colors.empty()) {  // as MeshLab and Blender show them
-    const int32_t t = builder.add_vertex_color_texture({});
-    d.bindings.push_back({t, BsdfPart::Front, BsdfParam::Reflectance});
-    d.bsdf.diffuse.reflectance = builder.texture_stats(t).mean;
-  }
-  const uint32_t material = builder.add_material({}, d);
+  const uint32_t material = builder.add_material({}, default_material(builder, !ply.colors.empty()));
   TriangleMesh mesh;
   mesh.positions = std::move(ply.positions);
   mesh.normals = std::move(ply.normals);

@@ -267,6 +267,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
         pos = std::move(mesh.positions);
         nrm = std::move(mesh.normals);
         uv = std::move(mesh.texcoords);
+        if (colored) col = std::move(mesh.colors);  // (Mitsuba 3's obj reads none)
         if (!flip_uv)
           for (Vec2& t : uv) t.y = 1.f - t.y;
         idx = std::move(mesh.indices);
