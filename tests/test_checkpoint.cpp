@@ -183,6 +183,8 @@ TEST(CheckpointFields, SameSceneSameFieldsAndEachChangeNamed) {
     return fields_mismatch(fa, render_fields(s, RenderDevice::Cpu));
   };
   EXPECT_EQ(changed([](Scene& s) { s.positions[0].x += 1e-3f; }), "the geometry differs from the checkpoint's");
+  EXPECT_EQ(changed([](Scene& s) { s.colors.assign(s.positions.size(), Color{0.5f, 0.5f, 0.5f}); }),
+            "the geometry differs from the checkpoint's");
   EXPECT_EQ(changed([](Scene& s) { s.materials[0].bsdf.diffuse.reflectance.x += 1e-3f; }),
             "the materials and textures differ from the checkpoint's");
   EXPECT_EQ(changed([](Scene& s) { s.lights[0].parallelogram.radiance.x += 1.f; }),

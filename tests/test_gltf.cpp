@@ -714,6 +714,23 @@ TEST_F(GltfFiles, VertexColoursMultiplyTheBaseColour) {
   }
   EXPECT_NE(s.tri_material[0], s.tri_material[2]) << "the material without COLOR_0 is its own";
   EXPECT_EQ(s.materials[s.tri_material[2]].num_bindings, 0u);
+  // An emissive texture splits the primitive into one mesh per lit
+  // triangle: each vertex keeps its colour (found by its position: the
+  // quad's corners (0, 0), (1, 0), (0, 1), (1, 1) in the file's order).
+  std::string lit = doc;
+  const std::string tail = "\"baseColorTexture\":{\"index\":0}}}]";
+  ASSERT_NE(lit.find(tail), std::string::npos);
+  lit.replace(lit.find(tail), tail.size(),
+              "\"baseColorTexture\":{\"index\":0}},\"emissiveFactor\":[1,1,1],\"emissiveTexture\":{\"index\":0}}]");
+  Scene e = load_scene(gltf("lit.gltf", bin, lit));
+  ASSERT_EQ(e.lights.size(), 2u);  // every texel lit: both triangles emit
+  ASSERT_EQ(e.positions.size(), 4u + 4u + 6u);  // primitives 0 and 1, then the lit triangles' own vertices
+  ASSERT_EQ(e.colors.size(), e.positions.size());
+  for (size_t k = 0; k < e.positions.size(); ++k) {
+    const size_t j = size_t(e.positions[k].x) + 2 * size_t(e.positions[k].y);
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(e.colors[k][c], k >= 4 && k < 8 ? 1.0 : rgba[4 * j + size_t(c)] / 255.0, 1e-6) << k;
+  }
   luz_test::expect_load_refused(
       gltf("badcolor.gltf", bin,
            views(",{\"buffer\":0,\"byteOffset\":60,\"byteLength\":16}",

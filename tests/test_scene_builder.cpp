@@ -103,6 +103,59 @@ TEST(SceneBuilder, TexturesNeedCoordinatesAndMasksDoNotEmit) {
                  "checkerboard colours must be finite and not negative");
 }
 
+// Vertex colours: only on meshes that have them, in [0, 1], never read by
+// an emitter, a normal or bump map or a spot light's projection.
+TEST(SceneBuilder, VertexColourChecks) {
+  auto colored = [](SceneBuilder& b, int32_t t) {
+    luz::MaterialDesc d;
+    d.bindings.push_back({t, luz::BsdfPart::Front, luz::BsdfParam::Reflectance});
+    return b.add_material(kAt, d);
+  };
+  expect_refused([&](SceneBuilder& b) { b.add_mesh(kAt, quad(), colored(b, b.add_vertex_color_texture(kAt))); },
+                 "a material reading vertex colours on a mesh without them");
+  expect_refused([&](SceneBuilder& b) {
+    TriangleMesh m = quad();
+    m.colors.assign(4, {0.5f, 0.5f, 0.5f});
+    m.colors[2].z = NAN;
+    b.add_mesh(kAt, m, colored(b, b.add_vertex_color_texture(kAt)));
+  }, "the colour of vertex 2 is not within [0, 1]");
+  expect_refused([&](SceneBuilder& b) {
+    TriangleMesh m = quad();
+    m.colors.resize(3);
+    b.add_mesh(kAt, m, b.default_material());
+  }, "colours for some vertices only");
+  expect_refused([&](SceneBuilder& b) {
+    luz::MaterialDesc d;
+    d.normal_map = b.add_vertex_color_texture(kAt);
+    b.add_material(kAt, d);
+  }, "a normal or bump map from vertex colours is not supported");
+  expect_refused([&](SceneBuilder& b) {
+    luz::AreaEmission e;
+    e.texture = b.add_vertex_color_texture(kAt);
+    TriangleMesh m = quad();
+    m.colors.assign(4, {1.f, 1.f, 1.f});
+    b.add_mesh(kAt, m, b.default_material(), &e);
+  }, "an emitter's radiance from vertex colours is not supported");
+  expect_refused([&](SceneBuilder& b) {
+    luz::SpotLight spot;
+    spot.texture = b.add_vertex_color_texture(kAt);
+    b.add_light(kAt, luz::Light(spot));
+  }, "a spot light's texture must be an image or checkerboard");
+  expect_refused([](SceneBuilder& b) { b.add_vertex_color_texture(kAt, {1.f, -1.f, 1.f}); },
+                 "a vertex colour's scale must be finite and not negative");
+  // Accepted: colours on a mesh whose material does not read them (kept,
+  // white elsewhere), and a reading material where they are.
+  SceneBuilder b("scene.txt");
+  TriangleMesh m = quad();
+  m.colors.assign(4, {0.25f, 0.5f, 1.f});
+  b.add_mesh(kAt, m, b.default_material());
+  b.add_mesh(kAt, quad(), b.default_material());
+  b.add_mesh(kAt, m, colored(b, b.add_vertex_color_texture(kAt)));
+  EXPECT_EQ(b.scene().colors.size(), 12u);
+  EXPECT_EQ(b.scene().colors[5].x, 1.f);
+  EXPECT_EQ(b.scene().colors[9].x, 0.25f);
+}
+
 // Mix and product textures (pbrt's mix and scale) of two checkerboards, one
 // of twice the other's frequency: over the unit square their patterns are
 // independent, each colour on half of it, so the mean of a mix by w is the

@@ -2,8 +2,8 @@
 // every field survives, so the render fields (hashes of the camera,
 // geometry, materials, textures and lights) agree and the image is the same
 // bit for bit, on the bundled box, a textured envmap-lit scene, an
-// instanced scene, the Wooden Staircase (pbrt-v4, PLY meshes) and
-// DamagedHelmet (glTF, normal maps). Damaged bytes are refused.
+// instanced scene, a vertex-coloured one, the Wooden Staircase (pbrt-v4,
+// PLY meshes) and DamagedHelmet (glTF, normal maps). Damaged bytes are refused.
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -68,6 +68,26 @@ TEST_F(SerializeSceneFile, InstancedScene) {
 </scene>
 )");
   expect_round_trip(path, {}, true);
+}
+
+// Vertex colours (a PLY file's, read through mesh_attribute) survive too.
+TEST_F(SerializeSceneFile, VertexColouredScene) {
+  write("c.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                 "property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\n"
+                 "property list uchar int vertex_indices\nend_header\n-1 -1 0 255 0 0\n1 -1 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n");
+  const std::string path = write("colored.xml", R"(<scene version="3.0.0">
+  <sensor type="perspective">
+    <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+    <film type="hdrfilm"><integer name="width" value="24"/><integer name="height" value="24"/></film>
+  </sensor>
+  <emitter type="constant"/>
+  <shape type="ply"><string name="filename" value="c.ply"/>
+    <bsdf type="diffuse"><texture name="reflectance" type="mesh_attribute"><string name="name" value="vertex_color"/></texture></bsdf>
+  </shape>
+</scene>
+)");
+  ASSERT_EQ(load_scene(path).colors.size(), 3u);
+  expect_round_trip(path, {});
 }
 
 TEST(SerializeScene, StaircasePbrt) {

@@ -728,33 +728,102 @@ TEST_F(VertexColors, IntegerChannelsAreSrgbDecoded) {
   EXPECT_TRUE(plain.colors.empty());
 }
 
+// The colour the test's PLY files give the corner at p of the quad [-1, 1]²
+// (kCornerColors in quad_ply's corner order), looked up by position: what
+// every vertex must carry however the loader splits or copies it.
+Color corner_color(Vec3 p) {
+  if (p.x < 0.f) return p.y < 0.f ? Color{1, 0, 0} : Color{0.5f, 0.5f, 0.5f};
+  return p.y < 0.f ? Color{0, 1, 0} : Color{0, 0, 1};
+}
+const std::vector<std::string> kCornerColors = {"1 0 0", "0 1 0", "0 0 1", "0.5 0.5 0.5"};
+
 // Shapes with and without vertex colours in one scene keep them aligned
-// (white where a mesh has none), and each hit interpolates its own.
+// (white where a mesh has none), and each hit interpolates its own: the
+// corners' colours by their positions, weighted by the hit's barycentrics.
 TEST_F(VertexColors, MixedMeshesKeepTheirColours) {
-  write("c.ply", quad_ply("property float r\nproperty float g\nproperty float b\n",
-                          {"1 0 0", "0 1 0", "0 0 1", "0.5 0.5 0.5"}));
+  write("c.ply", quad_ply("property float r\nproperty float g\nproperty float b\n", kCornerColors));
   const std::string other = "<shape type=\"rectangle\"><transform name=\"to_world\"><translate z=\"-1\"/></transform></shape>";
   Scene s = load_mitsuba(write("scene.xml", vertex_color_scene("c.ply", "1", other)), {});
   ASSERT_EQ(s.colors.size(), s.positions.size());
   SceneView v = s.view();
   ASSERT_NE(v.colors, nullptr);
+  int colored = 0;
   for (uint32_t tri = 0; tri < s.num_triangles(); ++tri) {
     Hit hit;
     hit.prim = tri;
     hit.u = 0.25f, hit.v = 0.5f;
     const uint32_t* i = s.indices.data() + 3 * tri;
-    const Color want = s.colors[i[0]] * 0.25f + s.colors[i[1]] * 0.25f + s.colors[i[2]] * 0.5f;
+    const bool from_ply = s.positions[i[0]].z == 0.f;
+    const Color want = from_ply ? corner_color(s.positions[i[0]]) * 0.25f + corner_color(s.positions[i[1]]) * 0.25f +
+                                      corner_color(s.positions[i[2]]) * 0.5f
+                                : Color{1.f, 1.f, 1.f};  // a mesh without colours reads white
     const Color got = v.hit_color(hit);
     for (int k = 0; k < 3; ++k) EXPECT_NEAR(got[k], want[k], 1e-6f) << tri;
-    const bool from_ply = s.tri_material[tri] == s.tri_material[0];
-    if (!from_ply)
-      for (int k = 0; k < 3; ++k) EXPECT_EQ(got[k], 1.f) << "a mesh without colours reads white";
-    // The material's reflectance is the colour there.
-    if (from_ply) {
+    if (from_ply) {  // the material's reflectance is the colour there
+      ++colored;
       const Bsdf b = v.materials.bsdf(s.tri_material[tri], v.textures, {}, got);
-      for (int k = 0; k < 3; ++k) EXPECT_NEAR(b.diffuse.reflectance[k], got[k], 1e-6f);
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(b.diffuse.reflectance[k], want[k], 1e-6f);
     }
   }
+  EXPECT_EQ(colored, 2);
+}
+
+// Where the loader copies vertices (Mitsuba's max_smooth_angle splitting a
+// crease; a textured mesh without uvs, whose faces each get three vertices
+// at their barycentrics), every copy keeps its colour; flattened instances
+// too.
+TEST_F(VertexColors, ColoursFollowTheirVerticesThroughEveryCopy) {
+  // The quad folded along its diagonal (corner (1, 1) raised): a crease
+  // sharper than 30 degrees.
+  std::string ply = quad_ply("property float r\nproperty float g\nproperty float b\n", kCornerColors);
+  ply.replace(ply.find("1 1 0 "), 6, "1 1 1 ");
+  write("bent.ply", ply);
+  const std::string mixed = "<bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"checkerboard\">"
+                            "<texture name=\"color0\" type=\"mesh_attribute\"><string name=\"name\" value=\"vertex_color\"/>"
+                            "</texture></texture></bsdf>";
+  const std::string plain = "<bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"mesh_attribute\">"
+                            "<string name=\"name\" value=\"vertex_color\"/></texture></bsdf>";
+  // (max_smooth_angle splits without the uv fallback; the checkerboard reads uv: the fallback.)
+  for (const std::string& shape : {"<float name=\"max_smooth_angle\" value=\"30\"/>" + plain, mixed}) {
+    Scene s = load_mitsuba(write("s.xml", "<scene version=\"3.0.0\"><sensor type=\"perspective\"/>"
+                                          "<shape type=\"shapegroup\" id=\"g\"><shape type=\"ply\">"
+                                          "<string name=\"filename\" value=\"bent.ply\"/>" + shape +
+                                          "</shape></shape><shape type=\"instance\"><ref id=\"g\"/></shape>"
+                                          "<shape type=\"instance\"><ref id=\"g\"/><transform name=\"to_world\">"
+                                          "<translate x=\"10\"/></transform></shape></scene>"),
+                           {});
+    s.flatten_instances();
+    ASSERT_EQ(s.colors.size(), s.positions.size());
+    EXPECT_GT(s.positions.size(), 8u) << "copies made (two placements of four corners): " << shape;
+    for (size_t k = 0; k < s.positions.size(); ++k) {
+      Vec3 p = s.positions[k];
+      if (p.x > 5.f) p.x -= 10.f;
+      const Color want = corner_color(p);
+      for (int c = 0; c < 3; ++c) EXPECT_EQ(s.colors[k][c], want[c]) << k << " " << shape;
+    }
+  }
+}
+
+// A PLY file's colour properties are read only where all three channels
+// are scalars, and float colours are checked only where a material reads
+// them: otherwise the file loads as before. Rendered on its own, a PLY
+// whose colours leave [0, 1] is grey, with a warning.
+TEST_F(VertexColors, UnusedOrPartialColoursDoNotStopALoad) {
+  auto load_plain = [&](const std::string& ply) {
+    return load_mitsuba(write("plain.xml", "<scene version=\"3.0.0\"><sensor type=\"perspective\"/><shape type=\"ply\">"
+                                           "<string name=\"filename\" value=\"" + ply + "\"/></shape></scene>"),
+                        {});
+  };
+  write("partial.ply", quad_ply("property uchar red\nproperty uchar green\n", {"1 2", "3 4", "5 6", "7 8"}));
+  EXPECT_EQ(load_plain("partial.ply").num_triangles(), 2u);
+  write("nan.ply", quad_ply("property float r\nproperty float g\nproperty float b\n", {"nan 0 0", "0 1 0", "0 0 2", "1 1 1"}));
+  EXPECT_EQ(load_plain("nan.ply").num_triangles(), 2u);
+  EXPECT_TRUE(load_plain("nan.ply").colors.empty());
+  luz_test::expect_load_refused(write("nan.xml", vertex_color_scene("nan.ply")), "nan.xml",
+                                "the colour of vertex 0 is not within [0, 1]");
+  Scene alone = load_scene((dir / "nan.ply").string());
+  EXPECT_TRUE(alone.colors.empty());
+  EXPECT_TRUE(luz_test::has_warning(alone, "the colour of vertex 0 is not within [0, 1]: the colours are not used"));
 }
 
 TEST_F(VertexColors, BadUsesAreErrors) {
@@ -789,7 +858,18 @@ TEST_F(VertexColors, BadUsesAreErrors) {
   luz_test::expect_load_refused(
       scene("sphere.xml", "<shape type=\"sphere\"><bsdf type=\"diffuse\">" + attr + "</bsdf></shape>"), "sphere.xml",
       "a material reading vertex colours on a sphere without them");
+  luz_test::expect_load_refused(
+      scene("scale.xml", "<shape type=\"ply\"><string name=\"filename\" value=\"c.ply\"/><bsdf type=\"diffuse\">"
+                         "<texture name=\"reflectance\" type=\"mesh_attribute\"><string name=\"name\" value=\"vertex_color\"/>"
+                         "<float name=\"scale\" value=\"2\"/></texture></bsdf></shape>"),
+      "scale.xml", "'reflectance' texture reads vertex colours times a scale above 1 (a reflectance lies in [0, 1])");
+  luz_test::expect_load_refused(
+      scene("spot.xml", "<emitter type=\"spot\"><texture name=\"texture\" type=\"mesh_attribute\">"
+                        "<string name=\"name\" value=\"vertex_color\"/></texture></emitter>"
+                        "<shape type=\"ply\"><string name=\"filename\" value=\"c.ply\"/></shape>"),
+      "spot.xml", "a spot light's texture must be an image or checkerboard");
 }
+
 
 // ---- Mitsuba 0.5 names ----
 

@@ -6,6 +6,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cerrno>
 #include <charconv>
@@ -207,6 +208,16 @@ class HeaderParser {
     return nullptr;
   }
 
+  // Whether every one of `names` is a scalar property of e.
+  static bool all_scalars(const Element& e, const std::array<std::string_view, 3>& names) {
+    for (std::string_view name : names) {
+      bool found = false;
+      for (const Property& p : e.props) found |= p.name == name && p.count_type == PlyType::None;
+      if (!found) return false;
+    }
+    return true;
+  }
+
   // Sets the slots of a group of properties that come all or none
   // (x y z, nx ny nz, u v, r g b); true if all are there.
   bool group(Element& e, std::initializer_list<std::string_view> names, Slot first) const {
@@ -243,8 +254,10 @@ class HeaderParser {
     h_.normals = group(v, {"nx", "ny", "nz"}, Slot::Nx);
     for (auto uv : {std::pair{"u", "v"}, {"s", "t"}, {"texture_u", "texture_v"}, {"texture_s", "texture_t"}})
       if (!h_.uvs) h_.uvs = group(v, {uv.first, uv.second}, Slot::U);
-    h_.colors = group(v, {"r", "g", "b"}, Slot::R);
-    if (!h_.colors) h_.colors = group(v, {"red", "green", "blue"}, Slot::R);
+    // Colours only where all three channels are scalars (as Mitsuba 3 groups
+    // them); others are skipped, as any property Luz does not read.
+    for (auto rgb : {std::array<std::string_view, 3>{"r", "g", "b"}, {"red", "green", "blue"}})
+      if (!h_.colors && all_scalars(v, rgb)) h_.colors = group(v, {rgb[0], rgb[1], rgb[2]}, Slot::R);
 
     Element& f = h_.elements[h_.face];
     Property* indices = nullptr;
@@ -503,10 +516,7 @@ void read_vertices(Source& src, const Header& h, const Element& e, PlyMesh& m) {
       m.uvs[i] = {v[7], v[8]};
       if (!std::isfinite(v[7]) || !std::isfinite(v[8])) src.fail_entry("its texture coordinates are not finite");
     }
-    if (h.colors) {
-      m.colors[i] = {v[9], v[10], v[11]};
-      if (!is_finite(m.colors[i])) src.fail_entry("its colour is not finite");
-    }
+    if (h.colors) m.colors[i] = {v[9], v[10], v[11]};  // checked where used (SceneBuilder)
     src.end_entry();
   }
 }

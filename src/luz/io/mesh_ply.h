@@ -20,9 +20,10 @@ struct PlyMesh {
   // Empty, or one per position, as written in the file (no flip): u/v, s/t,
   // texture_u/texture_v or texture_s/texture_t.
   std::vector<Vec2> uvs;
-  // Empty, or one per position: the vertex colour (r, g, b or red, green,
-  // blue), linear, as Mitsuba 3 reads it: a float channel as written, an
-  // integer one divided by its type's maximum and sRGB-decoded.
+  // Empty, or one per position: the vertex colour (scalar r, g, b or red,
+  // green, blue), linear, as Mitsuba 3 reads it: a float channel as written
+  // (not checked: SceneBuilder refuses colours outside [0, 1] where they are
+  // used), an integer one divided by its type's maximum and sRGB-decoded.
   std::vector<Color> colors;
   // Triangles (vertex_indices or vertex_index); polygons fan-triangulated:
   // face (v0, v1, ..., vn) gives (v0, v1, v2), (v0, v2, v3), ...

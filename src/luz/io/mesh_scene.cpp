@@ -214,6 +214,13 @@ Scene load_obj_scene(const std::string& path) {
 Scene load_ply_scene(const std::string& path) {
   PlyMesh ply = read_ply(path);
   SceneBuilder builder(path);
+  for (size_t k = 0; k < ply.colors.size(); ++k) {
+    const Color c = ply.colors[k];
+    if (!(c.x >= 0.f && c.x <= 1.f && c.y >= 0.f && c.y <= 1.f && c.z >= 0.f && c.z <= 1.f)) {
+      builder.warn({path, 0}, "the colour of vertex " + std::to_string(k) + " is not within [0, 1]: the colours are not used");
+      ply.colors.clear();
+    }
+  }
   const uint32_t material = builder.add_material({}, default_material(builder, !ply.colors.empty()));
   TriangleMesh mesh;
   mesh.positions = std::move(ply.positions);

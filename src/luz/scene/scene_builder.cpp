@@ -594,6 +594,10 @@ void SceneBuilder::add_light(const SourceLoc& at, const Light& light) {
     for (const Light& l : scene_.lights)
       if (is_environment(l)) error(at, "only one environment emitter is supported");
   if (scene_.lights.size() >= size_t(INT32_MAX)) error(at, "more than 2^31 - 1 lights");
+  if (light.type == LightType::Spot && light.spot.texture >= 0 &&
+      (light.spot.texture >= int32_t(scene_.textures.size()) ||
+       texture_reads_vertex_color(scene_.textures.data(), uint32_t(light.spot.texture))))
+    error(at, "a spot light's texture must be an image or checkerboard (no vertex colours: it lights no surface's vertices)");
   scene_.lights.push_back(light);
 }
 

@@ -257,12 +257,13 @@ struct TextureView {
   }
 
   // Asks the CPU's caches for the texels eval() will read at uv (the two rows
-  // of the bilinear taps; for the nearest filter, one of them): a hint with no
-  // effect on any result. Nothing on the GPU. Forced inline: GCC 12 finds a
+  // of the bilinear taps; for the nearest filter, one of them; of a mix's
+  // first operand): a hint with no effect on any result. Nothing on the GPU. Forced inline: GCC 12 finds a
   // function whose only effect is a prefetch free of side effects and drops
   // calls to it.
   LUZ_FORCE_INLINE void prefetch(uint32_t t, Vec2 uv) const {
 #if !defined(__CUDA_ARCH__)
+    if (list[t].type == TextureType::Mix && list[t].mix.a >= 0) t = uint32_t(list[t].mix.a);  // its first operand's
     const Texture& tex = list[t];
     if (tex.type != TextureType::Bitmap) return;
     const BilinearTaps b = bilinear_taps(tex.bitmap, tex.to_uv.apply(uv));

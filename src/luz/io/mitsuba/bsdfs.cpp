@@ -395,6 +395,13 @@ uint32_t MitsubaParser::parse_bsdf(pugi::xml_node n) {
   return id.empty() ? add_material(n, b) : bsdfs_[id];
 }
 
+std::string MitsubaParser::above_one(int32_t t) const {
+  // Vertex colours are known to lie in [0, 1] only: their scale bounds them.
+  return texture_reads_vertex_color(builder_.scene().textures.data(), uint32_t(t))
+             ? "texture reads vertex colours times a scale above 1"
+             : "texture has texels above 1";
+}
+
 Color MitsubaParser::color_param(pugi::xml_node n, Props& p, const char* name, Color def, BsdfParam param, bool is_reflectance, std::vector<TextureBinding>& tb) {
   const int32_t t = texture_param(p, name);
   if (t < 0) {
@@ -403,7 +410,7 @@ Color MitsubaParser::color_param(pugi::xml_node n, Props& p, const char* name, C
   }
   const TextureStats& info = builder_.texture_stats(t);
   if (is_reflectance && max_component(info.max) > 1.f)
-    error(n, std::string("'") + name + "' texture has texels above 1 (a reflectance lies in [0, 1])");
+    error(n, std::string("'") + name + "' " + above_one(t) + " (a reflectance lies in [0, 1])");
   tb.push_back({t, BsdfPart::Front, param});
   return info.mean;
 }
@@ -419,8 +426,7 @@ float MitsubaParser::unit_param(pugi::xml_node n, Props& p, const char* plugin, 
   texture = texture_param(p, name);
   const std::string what = std::string(plugin) + " '" + name + "'";
   if (texture >= 0) {
-    if (max_component(builder_.texture_stats(texture).max) > 1.f)
-      error(n, what + " texture has texels above 1 (it lies in [0, 1])");
+    if (max_component(builder_.texture_stats(texture).max) > 1.f) error(n, what + " " + above_one(texture) + " (it lies in [0, 1])");
     return luminance(builder_.texture_stats(texture).mean);
   }
   const float v = float(p.get_float(name, def));

@@ -175,6 +175,8 @@ class MitsubaParser {
   // `checkerboard` (color0, color1, to_uv). Returns its index in
   // the scene's textures; with load = false the texture is only checked (the file
   // must exist) and -1 returned.
+  // Why texture t may exceed 1: its texels, or vertex colours times a scale above 1.
+  std::string above_one(int32_t t) const;
   int32_t parse_texture(pugi::xml_node t, bool load);
   // A <ref> naming a top-level texture (a parameter), not a bsdf.
   bool is_texture_ref(pugi::xml_node c) const;
