@@ -85,6 +85,15 @@ std::vector<Case> build_models() {
                Bsdf::make_gltf_pbr_transmission({.9f, .6f, .3f}, 0.f, .3f, .8f), 1.f});
   v.push_back({"gltf transmission 1 metallic .3 rough .1 base .7",
                Bsdf::make_gltf_pbr_transmission({.7f, .7f, .7f}, .3f, .1f, 1.f), 1.f});
+  // KHR_materials_specular: a strength and an F0 colour (clamped in red).
+  Bsdf spec = Bsdf::make_gltf_pbr({.6f, .5f, .4f}, .2f, .3f, 1.8f);
+  spec.gltf_pbr.specular_strength = .4f;
+  spec.gltf_pbr.specular_color = {12.f, .5f, 0.f};
+  v.push_back({"gltf specular .4 colour (12,.5,0) ior 1.8 metallic .2 rough .3", spec, 1.f});
+  Bsdf spec_t = Bsdf::make_gltf_pbr_transmission({.8f, .8f, .9f}, 0.f, .2f, .7f);
+  spec_t.gltf_pbr_transmission.surface.specular_strength = .7f;
+  spec_t.gltf_pbr_transmission.surface.specular_color = {1.f, 2.f, .3f};
+  v.push_back({"gltf transmission .7 specular .7 colour (1,2,.3) rough .2", spec_t, 1.f});
   v.push_back({"twosided ggx .2 conductor / diffuse .7",
                Bsdf::make_two_sided(Bsdf::make_rough_conductor(G, .2f, .2f, au_eta(), au_k()),
                                     Bsdf::make_diffuse({.7f, .7f, .7f})), 1.f});
@@ -474,11 +483,13 @@ TEST(BsdfModels, TwoSidedAnswersEachSideWithItsOwnBsdf) {
 // glTF's metallic-roughness BSDF against the specification's Appendix B
 // written out independently, in double (D as §B.3.2's α² / (π (n·h)²(α²-1)+1)²),
 // V in its separable form 1 / ((|n·l| + √(α² + (1-α²)(n·l)²)) (|n·v| + √(…)));
-// the mixes of §B.3.5): gltf_pbr.h writes D and V through microfacet.h's
-// slopes and Smith Λ instead. Random directions and parameters, relative
-// tolerance 1e-4 (float rounding of D near its peak).
+// the mixes of §B.3.5, with KHR_materials_specular's Fresnel where a
+// strength s and an F0 colour c are given): gltf_pbr.h writes D and V
+// through microfacet.h's slopes and Smith Λ instead. Random directions and
+// parameters, relative tolerance 1e-4 (float rounding of D near its peak).
 TEST(BsdfModels, GltfPbrMatchesSpecificationFormulas) {
-  auto reference = [](Color base, double metallic, double roughness, double ior, Vec3 v, Vec3 l) {
+  auto reference = [](Color base, double metallic, double roughness, double ior, Vec3 v, Vec3 l, double s = 1.0,
+                      Color c = {1.f, 1.f, 1.f}) {
     const double pi = 3.14159265358979323846, a = roughness * roughness, a2 = a * a;
     double hx = double(v.x) + l.x, hy = double(v.y) + l.y, hz = double(v.z) + l.z;
     const double hn = std::sqrt(hx * hx + hy * hy + hz * hz);
@@ -487,11 +498,17 @@ TEST(BsdfModels, GltfPbrMatchesSpecificationFormulas) {
     const double dd = nh * nh * (a2 - 1.0) + 1.0, D = a2 / (pi * dd * dd);
     const double V = 1.0 / ((nl + std::sqrt(a2 + (1.0 - a2) * nl * nl)) * (nv + std::sqrt(a2 + (1.0 - a2) * nv * nv)));
     const double spec = V * D, w = std::pow(1.0 - vh, 5.0), f0 = std::pow((ior - 1.0) / (ior + 1.0), 2.0);
-    const double fd = f0 + (1.0 - f0) * w;
+    // The extension's dielectric_fresnel = mix(min(f0 c, 1) s, s, w); base weighted by 1 - its maximum.
+    std::array<double, 3> fd;
+    for (int k = 0; k < 3; ++k) {
+      const double f0k = std::min(f0 * c[k], 1.0) * s;
+      fd[size_t(k)] = f0k + (s - f0k) * w;
+    }
+    const double fmax = std::max({fd[0], fd[1], fd[2]});
     std::array<double, 3> out;
     for (int k = 0; k < 3; ++k) {
       const double metal = spec * (base[k] + (1.0 - base[k]) * w);
-      const double dielectric = (1.0 - fd) * base[k] / pi + fd * spec;
+      const double dielectric = (1.0 - fmax) * base[k] / pi + fd[size_t(k)] * spec;
       out[k] = (1.0 - metallic) * dielectric + metallic * metal;
     }
     return out;
@@ -510,6 +527,26 @@ TEST(BsdfModels, GltfPbrMatchesSpecificationFormulas) {
     ++checked;
   }
   EXPECT_GT(checked, 19000);
+  // KHR_materials_specular: strengths in [0, 1], colours in [0, 3) (f0 c
+  // clamped to 1 where the IOR is high).
+  checked = 0;
+  for (uint64_t i = 0; i < 10000; ++i) {
+    const Color base = {chi2::rand01(63, i, 0), chi2::rand01(63, i, 1), chi2::rand01(63, i, 2)};
+    const float metallic = i % 3 == 0 ? 0.f : chi2::rand01(63, i, 3);
+    const float roughness = 0.05f + 0.95f * chi2::rand01(63, i, 4), ior = 1.f + 30.f * chi2::rand01(63, i, 5);
+    const float s = chi2::rand01(63, i, 8);
+    const Color c = {3.f * chi2::rand01(63, i, 9), 3.f * chi2::rand01(63, i, 10), 3.f * chi2::rand01(63, i, 11)};
+    Vec3 v = square_to_cosine_hemisphere(chi2::rand2(63, i, 6)), l = square_to_cosine_hemisphere(chi2::rand2(63, i, 7));
+    if (!(v.z > 1e-3f && l.z > 1e-3f)) continue;
+    Bsdf b = Bsdf::make_gltf_pbr(base, metallic, roughness, ior);
+    b.gltf_pbr.specular_strength = s;
+    b.gltf_pbr.specular_color = c;
+    const Color f = b.f(v, l);
+    const std::array<double, 3> r = reference(base, metallic, roughness, ior, v, l, s, c);
+    for (int k = 0; k < 3; ++k) ASSERT_NEAR(f[k], r[k], 1e-4 * r[k] + 1e-7) << "specular pair " << i << " channel " << k;
+    ++checked;
+  }
+  EXPECT_GT(checked, 9500);
   // KHR_materials_transmission's thin sheet: on wo's side the diffuse part
   // scaled by 1 - t; across, (1 - m)(1 - F) t base · specular_brdf at the
   // mirrored direction (the extension's H_T); the same seen from below.

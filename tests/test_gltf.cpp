@@ -5,6 +5,7 @@
 // environment gives the directional albedo of the specification's BRDF
 // (quadrature); primitives' modes, index types, transforms, materials and
 // lights from small files written here; COLOR_0 times the base colour;
+// KHR_materials_specular's factors and textures;
 // malformed and truncated files give
 // one InputError naming the file.
 #include <gtest/gtest.h>
@@ -256,6 +257,23 @@ class GltfFiles : public TempDirTest {
     std::vector<uint8_t> idx = {0, 1, 2, 3};
     std::vector<uint16_t> fan = {0, 1, 3, 2};
     return bytes(p) + bytes(idx) + bytes(fan);
+  }
+  // tex.png, 2×2 texels: red, green (top row), blue, white.
+  Image four_texels() {
+    Image img;
+    img.width = img.height = 2;
+    img.rgb = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+    write_image((dir / "tex.png").string(), img);
+    return img;
+  }
+  // The quad with TEXCOORD_0 (0, 0), (1, 0), (0, 1), (1, 1) (accessor 3):
+  // its bytes, and its JSON up to a primitive of material 0 and tex.png as image 0.
+  std::string textured_quad_bin() { return quad_bin() + bytes(std::vector<float>{0, 0, 1, 0, 0, 1, 1, 1}); }
+  std::string textured_quad_json() {
+    return views(",{\"buffer\":0,\"byteOffset\":60,\"byteLength\":32}",
+                 ",{\"bufferView\":3,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"}") +
+           ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":3},\"indices\":1,\"mode\":5,"
+           "\"material\":0}]}],\"nodes\":[{\"mesh\":0}],\"images\":[{\"uri\":\"tex.png\"}]";
   }
   // Its bufferViews and accessors 0-2, then `more_views` and `more_accessors` (each ",{...}").
   std::string views(const std::string& more_views = "", const std::string& more_accessors = "") {
@@ -545,17 +563,10 @@ TEST_F(GltfFiles, MaterialProperties) {
 // raw, the MASK cutoff on the base colour's alpha (scaled by the factor's),
 // KHR_texture_transform as to_uv (T R S with R = [cos sin; -sin cos]).
 TEST_F(GltfFiles, MaterialTextures) {
-  Image img;
-  img.width = img.height = 2;
-  img.rgb = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
-  write_image((dir / "tex.png").string(), img);
-  std::vector<float> uv = {0, 0, 1, 0, 0, 1, 1, 1};
-  const std::string bin = quad_bin() + bytes(uv);
+  four_texels();
+  const std::string bin = textured_quad_bin();
   const std::string doc =
-      views(",{\"buffer\":0,\"byteOffset\":60,\"byteLength\":32}",
-            ",{\"bufferView\":3,\"componentType\":5126,\"count\":4,\"type\":\"VEC2\"}") +
-      ",\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0,\"TEXCOORD_0\":3},\"indices\":1,\"mode\":5,"
-      "\"material\":0}]}],\"nodes\":[{\"mesh\":0}],\"images\":[{\"uri\":\"tex.png\"}],"
+      textured_quad_json() + ","
       "\"samplers\":[{\"magFilter\":9728,\"wrapS\":33071,\"wrapT\":33071}],"
       "\"textures\":[{\"source\":0,\"sampler\":0}],\"materials\":[{\"alphaMode\":\"MASK\",\"alphaCutoff\":0.3,"
       "\"pbrMetallicRoughness\":{\"baseColorFactor\":[0.5,0.25,1,0.5],\"baseColorTexture\":{\"index\":0,"
@@ -600,6 +611,51 @@ TEST_F(GltfFiles, MaterialTextures) {
   EXPECT_EQ(s.lights[0].type, LightType::Constant);
   ASSERT_FALSE(s.warnings.empty());
   EXPECT_NE(s.warnings[0].find("without its emission"), std::string::npos) << s.warnings[0];
+}
+
+// KHR_materials_specular: specularFactor and the A channel of
+// specularTexture (linear) make the strength, specularColorFactor (above 1
+// allowed) and specularColorTexture (sRGB) the F0 colour; the extension is
+// not warned about; bad factors are errors.
+TEST_F(GltfFiles, SpecularExtensionFactorsAndTextures) {
+  four_texels();
+  const std::string bin = textured_quad_bin();
+  auto doc = [&](const std::string& specular) {
+    return textured_quad_json() + ","
+           "\"textures\":[{\"source\":0}],\"extensionsUsed\":[\"KHR_materials_specular\"],\"materials\":[{"
+           "\"pbrMetallicRoughness\":{\"metallicFactor\":0},\"extensions\":{\"KHR_materials_specular\":{" + specular + "}}}]";
+  };
+  Scene c = load_scene(gltf("constant.gltf", bin, doc("\"specularFactor\":0.3,\"specularColorFactor\":[2,1,0.5]")));
+  ASSERT_EQ(c.materials.size(), 1u);
+  EXPECT_EQ(c.materials[0].num_bindings, 0u);
+  EXPECT_EQ(c.materials[0].bsdf.gltf_pbr.specular_strength, 0.3f);
+  EXPECT_EQ(c.materials[0].bsdf.gltf_pbr.specular_color.x, 2.f);
+  EXPECT_EQ(c.materials[0].bsdf.gltf_pbr.specular_color.z, 0.5f);
+  EXPECT_TRUE(c.warnings.empty() || !luz_test::has_warning(c, "KHR_materials_specular")) << c.warnings.front();
+  Scene t = load_scene(gltf("textured.gltf", bin,
+                            doc("\"specularFactor\":0.3,\"specularTexture\":{\"index\":0},"
+                                "\"specularColorFactor\":[2,1,0.5],\"specularColorTexture\":{\"index\":0}")));
+  const Material& m = t.materials[0];
+  ASSERT_EQ(m.num_bindings, 2u);
+  const TextureBinding& a = t.texture_bindings[m.first_binding], &b = t.texture_bindings[m.first_binding + 1];
+  EXPECT_EQ(a.param, BsdfParam::Specular);
+  EXPECT_EQ(t.textures[size_t(a.texture)].bitmap.channel, TextureChannel::A);
+  EXPECT_EQ(t.textures[size_t(a.texture)].scale.x, 0.3f);
+  EXPECT_EQ(b.param, BsdfParam::SpecularColor);
+  EXPECT_TRUE(t.textures[size_t(b.texture)].bitmap.srgb);
+  EXPECT_EQ(t.textures[size_t(b.texture)].scale.x, 2.f);
+  // At the hit on the (1, 0) texel (green): strength 0.3 · A = 0.3, colour (2, 1, 0.5) · (0, 1, 0).
+  const SceneView v = t.view();
+  const Bsdf at = v.materials.bsdf(0, v.textures, {0.75f, 0.25f});
+  EXPECT_NEAR(at.gltf_pbr.specular_strength, 0.3f, 1e-6f);
+  EXPECT_NEAR(at.gltf_pbr.specular_color.x, 0.f, 1e-6f);
+  EXPECT_NEAR(at.gltf_pbr.specular_color.y, 1.f, 1e-6f);
+  luz_test::expect_load_refused(gltf("bad1.gltf", bin, doc("\"specularColorFactor\":[1,-1,1]")), "bad1.gltf",
+                                "specularColorFactor must be finite and >= 0");
+  luz_test::expect_load_refused(gltf("bad2.gltf", bin, doc("\"specularFactor\":2")), "bad2.gltf",
+                                "specularFactor must lie in [0, 1]");
+  luz_test::expect_load_refused(gltf("bad3.gltf", bin, doc("\"specularTexture\":{\"texCoord\":0}")), "bad3.gltf",
+                                "specularTexture needs an index");
 }
 
 // Normal textures (§3.9.3, tangents by MikkTSpace where TANGENT is absent):
@@ -665,10 +721,7 @@ TEST_F(GltfFiles, NormalTexturesFollowTheImagesUp) {
 // here from the file's bytes, interpolated with the hit's barycentrics. The
 // alpha of COLOR_0 is ignored with a warning where the material blends.
 TEST_F(GltfFiles, VertexColoursMultiplyTheBaseColour) {
-  Image img;
-  img.width = img.height = 2;
-  img.rgb = {1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
-  write_image((dir / "tex.png").string(), img);
+  const Image img = four_texels();
   const std::vector<uint8_t> rgba = {255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 255, 51, 102, 204, 255};
   const std::vector<float> uv = {0, 0, 1, 0, 0, 1, 1, 1};
   const std::string bin = quad_bin() + bytes(rgba) + bytes(uv);

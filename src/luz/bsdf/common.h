@@ -26,7 +26,9 @@ enum class BsdfParam : uint8_t {
   BaseColor,  // glTF metallic-roughness (gltf_pbr.h)
   Metallic,
   Roughness,
-  Transmission,  // KHR_materials_transmission
+  Transmission,   // KHR_materials_transmission
+  Specular,       // KHR_materials_specular: the strength
+  SpecularColor,  // and the F0 colour
 };
 
 // What is transported along the path: radiance (camera paths, the path

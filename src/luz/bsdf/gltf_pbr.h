@@ -1,6 +1,7 @@
 // glTF 2.0 metallic-roughness material: the reference BRDF of the glTF 2.0
 // specification (Khronos, Appendix B "BRDF Implementation", §B.3), with
-// KHR_materials_ior's dielectric F0:
+// KHR_materials_ior's dielectric F0 and KHR_materials_specular's strength s
+// and F0 colour c:
 //
 //   specular_brdf(α) = D(h) V(wo, wi, h),  α = roughness²
 //   D   GGX (Trowbridge-Reitz), isotropic (microfacet.h)
@@ -9,8 +10,10 @@
 //       height-correlated G2 of Luz's other microfacet models
 //   w   = (1 - |wo·h|)⁵  (Schlick)
 //   metal      = specular_brdf · (base + (1 - base) w)
-//   dielectric = mix(base / π, specular_brdf, f0 + (1 - f0) w),
-//                f0 = ((ior - 1) / (ior + 1))² (0.04 for ior 1.5, the core default)
+//   dielectric = F specular_brdf + (1 - max(F)) base / π,
+//                F = F0 + (F90 - F0) w, F0 = min(f0 c, 1) s, F90 = s (per channel),
+//                f0 = ((ior - 1) / (ior + 1))² (0.04 for ior 1.5, the core default);
+//                c = 1, s = 1 (the core): F = f0 + (1 - f0) w, the mix of §B.3.5
 //   f = mix(dielectric, metal, metallic)
 //
 // Reciprocal (|wo·h| = |wi·h|). Not energy conserving in general, as the
@@ -31,14 +34,16 @@
 //
 // Sampling: GGX visible normals from wo (wi = reflect(wo, m)) with
 // probability P_s, cosine-weighted otherwise, P_s from a Schlick estimate at wo:
-//   s = (1 - metallic) F(cos θo) + metallic,  d = (1 - metallic) (1 - F(cos θo)) mean(base),
+//   s = (1 - metallic) F + metallic,  d = (1 - metallic) (1 - F) mean(base),  F = max(F(cos θo)),
 //   P_s = max(s, 0.01) / (max(s, 0.01) + d)
 // (P_s = 1 exactly when the diffuse lobe is zero, so pdf > 0 wherever f > 0).
 // pdf() is the mixture's solid-angle density; sample() returns f cos / pdf.
 //
 // Scene-file names (glTF's): baseColorFactor/Texture -> base_color,
 // metallicFactor (B channel) -> metallic, roughnessFactor (G channel) ->
-// roughness. One-sided: the Bsdf wrapper handles doubleSided.
+// roughness, specularFactor/Texture (A) -> specular_strength,
+// specularColorFactor/Texture -> specular_color. One-sided: the Bsdf
+// wrapper handles doubleSided.
 #pragma once
 
 #include "luz/bsdf/common.h"
@@ -50,14 +55,21 @@ namespace luz {
 struct GltfPbrBsdf {
   static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = false;
   // The members textures can drive (material.h).
-  LUZ_INLINE Color* color_param(BsdfParam p) { return p == BsdfParam::BaseColor ? &base_color : nullptr; }
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::BaseColor ? &base_color : p == BsdfParam::SpecularColor ? &specular_color : nullptr;
+  }
   LUZ_INLINE float* float_param(BsdfParam p) {
-    return p == BsdfParam::Metallic ? &metallic : p == BsdfParam::Roughness ? &roughness : nullptr;
+    return p == BsdfParam::Metallic ? &metallic : p == BsdfParam::Roughness ? &roughness
+         : p == BsdfParam::Specular ? &specular_strength : nullptr;
   }
   // glTF's defaults.
   Color base_color{1.f, 1.f, 1.f};
   float metallic = 1.f, roughness = 1.f;
-  float f0 = 0.04f;  // dielectric reflectance at normal incidence
+  float f0 = 0.04f;  // dielectric reflectance at normal incidence, from the IOR
+  // KHR_materials_specular (1: the core material): the F0 colour (may
+  // exceed 1; f0 times it is clamped to 1) and the strength in [0, 1].
+  Color specular_color{1.f, 1.f, 1.f};
+  float specular_strength = 1.f;
 
   LUZ_INLINE static float ior_to_f0(float ior) {
     float r = (ior - 1.f) / (ior + 1.f);
@@ -68,6 +80,13 @@ struct GltfPbrBsdf {
     return x2 * x2 * x;
   }
   LUZ_INLINE float metal() const { return clamp(metallic, 0.f, 1.f); }
+  // The dielectric's Fresnel F = F0 + (F90 - F0) w at Schlick weight w.
+  LUZ_INLINE Color dielectric_fresnel(float w) const {
+    const float s = clamp(specular_strength, 0.f, 1.f);
+    const Color c = vmax(specular_color, Color{});
+    const Color f0c = Color{min(f0 * c.x, 1.f), min(f0 * c.y, 1.f), min(f0 * c.z, 1.f)} * s;
+    return f0c + (Color{s, s, s} - f0c) * w;
+  }
   LUZ_INLINE MicrofacetDistribution dist() const {
     float r = clamp(roughness, 0.f, 1.f);
     return MicrofacetDistribution::make(MicrofacetType::GGX, r * r, r * r);
@@ -85,15 +104,15 @@ struct GltfPbrBsdf {
     const Vec3 h = normalize(wo + wi);
     const float spec = specular(wo, wi, h);
     const float w = schlick_weight(fabsf(dot(wo, h))), m = metal();
-    const float fd = f0 + (1.f - f0) * w;
+    const Color fd = dielectric_fresnel(w);
     const Color one{1.f, 1.f, 1.f};
-    const Color dielectric = base_color * ((1.f - fd) * diffuse * kInvPi) + one * (fd * spec);
+    const Color dielectric = base_color * ((1.f - max_component(fd)) * diffuse * kInvPi) + fd * spec;
     const Color metal_f = (base_color + (one - base_color) * w) * spec;
     return dielectric * (1.f - m) + metal_f * m;
   }
 
   LUZ_INLINE float specular_probability(float cos_o) const {
-    const float m = metal(), fd = f0 + (1.f - f0) * schlick_weight(cos_o);
+    const float m = metal(), fd = max_component(dielectric_fresnel(schlick_weight(cos_o)));
     const float s = max((1.f - m) * fd + m, 0.01f);
     const float mean = (base_color.x + base_color.y + base_color.z) * (1.f / 3.f);
     const float d = (1.f - m) * (1.f - fd) * max(mean, 0.f);
@@ -147,7 +166,7 @@ struct GltfPbrTransmissionBsdf {
     const Vec3 wm = mirror(wi);
     const Vec3 h = normalize(wo + wm);
     const float spec = surface.specular(wo, wm, h);
-    const float fd = surface.f0 + (1.f - surface.f0) * GltfPbrBsdf::schlick_weight(fabsf(dot(wo, h)));
+    const float fd = max_component(surface.dielectric_fresnel(GltfPbrBsdf::schlick_weight(fabsf(dot(wo, h)))));
     return surface.base_color * ((1.f - surface.metal()) * (1.f - fd) * t * spec);
   }
   // Lobe probabilities at wo (upper side): specular, diffuse, transmitted.

@@ -31,7 +31,8 @@
 //    one-sided surface's back is black and opaque rather than culled (a
 //    rasteriser's culling, followed by rays, would let light leak through
 //    single-sided walls).
-//    KHR_materials_ior sets the dielectric f0; KHR_materials_transmission
+//    KHR_materials_ior sets the dielectric f0; KHR_materials_specular its
+//    strength and F0 colour (factors and textures); KHR_materials_transmission
 //    (factor, texture's R) makes it gltf_pbr.h's thin transmitting sheet
 //    (two-sided whatever doubleSided says; KHR_materials_volume ignored).
 //  - Emission: emissiveFactor × emissiveTexture × KHR_materials_emissive_strength
@@ -275,7 +276,7 @@ class GltfLoader {
   void check_extensions() {
     static const std::set<std::string> supported = {
         "KHR_texture_transform", "KHR_materials_emissive_strength", "KHR_lights_punctual", "KHR_materials_ior",
-        "KHR_mesh_quantization", "KHR_materials_transmission"};
+        "KHR_mesh_quantization", "KHR_materials_transmission", "KHR_materials_specular"};
     for (const std::string& e : model_.extensionsRequired)
       if (!supported.count(e)) fail("", "requires extension " + e + ", which Luz does not support");
     // Optional ones are left out with a word (KHR_materials_volume: where a
@@ -947,6 +948,26 @@ class GltfLoader {
 
   // glTF material `index` (-1: the default), on a primitive with COLOR_0
   // (`colored`: the base colour times the vertex colours) or without.
+  // A textureInfo inside a material extension (`key` of extension `name`):
+  // its index (-1: none), texCoord and own extensions (KHR_texture_transform).
+  struct ExtensionTexture {
+    int index = -1, set = 0;
+    tinygltf::ExtensionMap ext;
+  };
+  ExtensionTexture extension_texture(const tinygltf::ExtensionMap& extensions, const char* name, const char* key,
+                                     const std::string& where) {
+    ExtensionTexture r;
+    const auto x = extensions.find(name);
+    if (x == extensions.end() || !x->second.Has(key)) return r;
+    const tinygltf::Value& t = x->second.Get(key);
+    r.index = t.Has("index") ? index_of(t.Get("index")) : -1;
+    if (r.index < 0) fail(where, std::string(key) + " needs an index");
+    if (t.Has("texCoord")) r.set = index_of(t.Get("texCoord"));
+    if (t.Has("extensions") && t.Get("extensions").IsObject())
+      for (const std::string& k : t.Get("extensions").Keys()) r.ext[k] = t.Get("extensions").Get(k);
+    return r;
+  }
+
   const MaterialInfo& material(int index, bool colored) {
     auto it = materials_.find({index, colored});
     if (it != materials_.end()) return it->second;
@@ -981,25 +1002,37 @@ class GltfLoader {
     if (!(ior >= 1.0)) fail(where, "KHR_materials_ior's ior must be >= 1");
     // KHR_materials_transmission: a thin sheet (KHR_materials_volume's
     // thickness is not modelled).
-    const auto tx = m.extensions.find("KHR_materials_transmission");
     const float transmission = unit(extension_number(m.extensions, "KHR_materials_transmission", "transmissionFactor", 0.0, where),
                                     "transmissionFactor");
-    int transmission_index = -1, transmission_set = 0;
-    tinygltf::ExtensionMap transmission_ext;  // the textureInfo's own extensions (KHR_texture_transform)
-    if (tx != m.extensions.end() && tx->second.Has("transmissionTexture")) {
-      const tinygltf::Value& t = tx->second.Get("transmissionTexture");
-      transmission_index = t.Has("index") ? index_of(t.Get("index")) : -1;
-      if (transmission_index < 0) fail(where, "transmissionTexture needs an index");
-      if (t.Has("texCoord")) transmission_set = index_of(t.Get("texCoord"));
-      if (t.Has("extensions") && t.Get("extensions").IsObject())
-        for (const std::string& k : t.Get("extensions").Keys()) transmission_ext[k] = t.Get("extensions").Get(k);
+    const ExtensionTexture transmission_tex =
+        extension_texture(m.extensions, "KHR_materials_transmission", "transmissionTexture", where);
+    // KHR_materials_specular: the dielectric's strength (A of its texture)
+    // and F0 colour (sRGB texture; the factor may exceed 1).
+    const float specular = unit(extension_number(m.extensions, "KHR_materials_specular", "specularFactor", 1.0, where),
+                                "specularFactor");
+    Color specular_color{1.f, 1.f, 1.f};
+    if (auto sx = m.extensions.find("KHR_materials_specular");
+        sx != m.extensions.end() && sx->second.Has("specularColorFactor")) {
+      const tinygltf::Value& c = sx->second.Get("specularColorFactor");
+      if (!c.IsArray() || c.ArrayLen() != 3) fail(where, "specularColorFactor needs 3 numbers");
+      for (int k = 0; k < 3; ++k) {
+        const tinygltf::Value& x = c.Get(k);
+        if (!x.IsNumber() || !(x.GetNumberAsDouble() >= 0.0 && x.GetNumberAsDouble() < 1e30))
+          fail(where, "specularColorFactor must be finite and >= 0");
+        specular_color[k] = float(x.GetNumberAsDouble());
+      }
     }
-    const bool transmissive = transmission > 0.f || transmission_index >= 0;
+    const ExtensionTexture specular_tex = extension_texture(m.extensions, "KHR_materials_specular", "specularTexture", where);
+    const ExtensionTexture specular_color_tex =
+        extension_texture(m.extensions, "KHR_materials_specular", "specularColorTexture", where);
+    const bool transmissive = transmission > 0.f || transmission_tex.index >= 0;
     if (transmissive && m.extensions.count("KHR_materials_volume"))
       warn(where + ": KHR_materials_volume is not supported; the transmission is a thin sheet");
     Bsdf b = transmissive ? Bsdf::make_gltf_pbr_transmission(base, metallic, roughness, transmission, float(ior))
                           : Bsdf::make_gltf_pbr(base, metallic, roughness, float(ior), m.doubleSided);
     GltfPbrBsdf& surface = transmissive ? b.gltf_pbr_transmission.surface : b.gltf_pbr;
+    surface.specular_strength = specular;
+    surface.specular_color = specular_color;
     std::vector<TextureBinding> bindings;
     if (pbr.baseColorTexture.index >= 0) {
       Color mean;
@@ -1018,12 +1051,26 @@ class GltfLoader {
       bindings.insert(bindings.begin(), {t, BsdfPart::Front, BsdfParam::BaseColor});
       surface.base_color = builder_.texture_stats(t).mean;
     }
-    if (transmission_index >= 0) {
+    if (transmission_tex.index >= 0) {
       Color mean;
-      const int32_t t = texture(transmission_index, transmission_set, transmission_ext, TextureChannel::R, false,
+      const int32_t t = texture(transmission_tex.index, transmission_tex.set, transmission_tex.ext, TextureChannel::R, false,
                                 Color{1.f, 1.f, 1.f} * transmission, where + ".transmissionTexture", info.uv_set, &mean);
       bindings.push_back({t, BsdfPart::Front, BsdfParam::Transmission});
       b.gltf_pbr_transmission.transmission = mean.x;
+    }
+    if (specular_tex.index >= 0) {
+      Color mean;
+      const int32_t t = texture(specular_tex.index, specular_tex.set, specular_tex.ext, TextureChannel::A, false,
+                                Color{1.f, 1.f, 1.f} * specular, where + ".specularTexture", info.uv_set, &mean);
+      bindings.push_back({t, BsdfPart::Front, BsdfParam::Specular});
+      surface.specular_strength = mean.x;
+    }
+    if (specular_color_tex.index >= 0) {
+      Color mean;
+      const int32_t t = texture(specular_color_tex.index, specular_color_tex.set, specular_color_tex.ext, TextureChannel::Rgb,
+                                true, specular_color, where + ".specularColorTexture", info.uv_set, &mean);
+      bindings.push_back({t, BsdfPart::Front, BsdfParam::SpecularColor});
+      surface.specular_color = mean;
     }
     if (pbr.metallicRoughnessTexture.index >= 0) {
       Color mean;
