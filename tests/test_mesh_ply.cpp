@@ -119,8 +119,11 @@ std::vector<PlyElement> test_mesh() {
                            {10.0 * i}, {1000.0 * i}, {0.1 * i}});
   }
   PlyElement face{"face",
-                  {{"uint16", "intensity"}, {"uint", "vertex_indices", "ushort"}, {"int8", "face_indices"}},
-                  {{{65535}, {0, 1, 2}, {-3}}, {{0}, {1, 2, 3, 4}, {5}}, {{12}, {5, 4, 3, 2, 1}, {127}}}};
+                  {{"uint16", "intensity"}, {"uint", "vertex_indices", "ushort"}, {"int8", "face_indices"},
+                   {"float", "r"}, {"float", "g"}, {"uchar", "b"}},
+                  {{{65535}, {0, 1, 2}, {-3}, {.25}, {.5}, {255}},
+                   {{0}, {1, 2, 3, 4}, {5}, {0}, {1}, {0}},
+                   {{12}, {5, 4, 3, 2, 1}, {127}, {1}, {.125}, {64}}}};
   PlyElement grid{"range_grid", {{"int", "vertex_indices", "uchar"}}, {{{}}, {{1, 2, 3}}, {{-4}}}};
   return {camera, vertex, face, grid};
 }
@@ -131,6 +134,7 @@ void expect_equal_meshes(const PlyMesh& a, const PlyMesh& b) {
   EXPECT_EQ(bytes(a.normals), bytes(b.normals));
   EXPECT_EQ(bytes(a.uvs), bytes(b.uvs));
   EXPECT_EQ(bytes(a.colors), bytes(b.colors));
+  EXPECT_EQ(bytes(a.face_colors), bytes(b.face_colors));
   EXPECT_EQ(a.indices, b.indices);
   EXPECT_EQ(a.face_indices, b.face_indices);
   EXPECT_EQ(a.face_first_triangle, b.face_first_triangle);
@@ -181,6 +185,13 @@ TEST(Ply, ThreeEncodingsGiveTheValuesWritten) {
   EXPECT_EQ(asc.indices, tris);
   EXPECT_EQ(asc.face_indices, (std::vector<int32_t>{-3, 5, 5, 127, 127, 127}));
   EXPECT_EQ(asc.face_first_triangle, (std::vector<uint32_t>{0, 1, 3}));
+  // Face colours, one per output triangle (a float channel as written, a uchar one sRGB-decoded).
+  ASSERT_EQ(asc.face_colors.size(), 6u);
+  EXPECT_EQ(asc.face_colors[0].x, .25f);
+  EXPECT_EQ(asc.face_colors[0].z, 1.f);
+  EXPECT_EQ(asc.face_colors[2].y, 1.f);
+  EXPECT_EQ(asc.face_colors[5].y, .125f);
+  EXPECT_NEAR(asc.face_colors[5].z, std::pow((64 / 255.0 + 0.055) / 1.055, 2.4), 1e-7);
   expect_equal_meshes(asc, le);
   expect_equal_meshes(asc, be);
 }

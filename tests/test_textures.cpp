@@ -16,7 +16,8 @@
 //   in a product; a quad whose corner colours are an affine function of the
 //   position shows that function under a uniform environment (mirrored, it
 //   fails); integer channels normalised and sRGB-decoded; meshes with and
-//   without colours mixed; every bad use one error;
+//   without colours mixed; colours kept through every vertex copy; face
+//   colours constant over their faces; every bad use one error;
 // - Mitsuba 0.5 names (camelCase, ldrfilm) load to the same scene as their
 //   Mitsuba 3 spelling, and a bad name is a file:line error;
 // - the Wooden Staircase (../shared/scenes/staircase, skipped without it):
@@ -826,6 +827,48 @@ TEST_F(VertexColors, UnusedOrPartialColoursDoNotStopALoad) {
   EXPECT_TRUE(luz_test::has_warning(alone, "the colour of vertex 0 is not within [0, 1]: the colours are not used"));
 }
 
+// Mitsuba's face_color: a PLY file's face colours (face properties r, g, b),
+// constant over each face: every triangle gets vertices of its own carrying
+// its face's colour, so a hit anywhere on it reads that colour exactly. A
+// material reading both kinds, or a file without face colours, is an error.
+TEST_F(VertexColors, FaceColoursAreConstantOverTheirFaces) {
+  write("faces.ply",
+        "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+        "element face 2\nproperty list uchar int vertex_indices\nproperty uchar red\nproperty uchar green\n"
+        "property uchar blue\nend_header\n-1 -1 0\n1 -1 0\n1 1 0\n-1 1 0\n3 0 1 2 255 0 0\n3 0 2 3 0 64 255\n");
+  const std::string face = "<texture name=\"reflectance\" type=\"mesh_attribute\"><string name=\"name\" value=\"face_color\"/></texture>";
+  auto scene = [&](const std::string& name, const std::string& ply, const std::string& bsdf) {
+    return write(name, "<scene version=\"3.0.0\"><sensor type=\"perspective\"/><shape type=\"ply\"><string name=\"filename\" "
+                       "value=\"" + ply + "\"/>" + bsdf + "</shape></scene>");
+  };
+  Scene s = load_mitsuba(scene("f.xml", "faces.ply", "<bsdf type=\"diffuse\">" + face + "</bsdf>"), {});
+  ASSERT_EQ(s.num_triangles(), 2u);
+  ASSERT_EQ(s.positions.size(), 6u);
+  const SceneView v = s.view();
+  for (uint32_t tri = 0; tri < 2; ++tri)
+    for (float a : {0.f, 0.3f, 0.9f}) {
+      Hit hit;
+      hit.prim = tri;
+      hit.u = a, hit.v = 0.1f;
+      // The triangle's face: the one with corner (1, -1) is the first (red).
+      bool first = false;
+      for (int j = 0; j < 3; ++j) first |= s.positions[s.indices[3 * tri + j]].y < 0.f && s.positions[s.indices[3 * tri + j]].x > 0.f;
+      const Color got = v.hit_color(hit);
+      EXPECT_EQ(got.x, first ? 1.f : 0.f);
+      EXPECT_NEAR(got.y, first ? 0.0 : srgb_decode(64 / 255.0), 1e-6);
+      EXPECT_EQ(got.z, first ? 0.f : 1.f);
+    }
+  write("plain.ply", quad_ply("", {"", "", "", ""}));
+  luz_test::expect_load_refused(scene("none.xml", "plain.ply", "<bsdf type=\"diffuse\">" + face + "</bsdf>"), "none.xml",
+                                "the material reads face colours (mesh_attribute), and 'plain.ply' has none");
+  luz_test::expect_load_refused(
+      scene("both.xml", "faces.ply",
+            "<bsdf type=\"blendbsdf\"><float name=\"weight\" value=\"0.5\"/><bsdf type=\"diffuse\">" + face +
+                "</bsdf><bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"mesh_attribute\">"
+                "<string name=\"name\" value=\"vertex_color\"/></texture></bsdf></bsdf>"),
+      "both.xml", "a material reading both vertex_color and face_color is not supported");
+}
+
 TEST_F(VertexColors, BadUsesAreErrors) {
   write("c.ply", quad_ply("property float r\nproperty float g\nproperty float b\n", {"1 0 0", "0 1 0", "0 0 1", "1 1 1"}));
   write("plain.ply", quad_ply("", {"", "", "", ""}));
@@ -847,9 +890,9 @@ TEST_F(VertexColors, BadUsesAreErrors) {
       "bright.xml", "the colour of vertex 1 is not within [0, 1]");
   luz_test::expect_load_refused(
       scene("face.xml", "<shape type=\"ply\"><string name=\"filename\" value=\"c.ply\"/><bsdf type=\"diffuse\">"
-                        "<texture name=\"reflectance\" type=\"mesh_attribute\"><string name=\"name\" value=\"face_color\"/>"
+                        "<texture name=\"reflectance\" type=\"mesh_attribute\"><string name=\"name\" value=\"uv\"/>"
                         "</texture></bsdf></shape>"),
-      "face.xml", "mesh attribute 'face_color' is not supported (supported: vertex_color)");
+      "face.xml", "mesh attribute 'uv' is not supported (supported: vertex_color, face_color)");
   luz_test::expect_load_refused(
       scene("emit.xml", "<shape type=\"ply\"><string name=\"filename\" value=\"c.ply\"/><emitter type=\"area\">"
                         "<texture name=\"radiance\" type=\"mesh_attribute\"><string name=\"name\" value=\"vertex_color\"/>"

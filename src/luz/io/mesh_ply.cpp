@@ -54,7 +54,7 @@ int64_t type_max(PlyType t) {
 }
 
 // What the reader does with a property's values.
-enum class Slot : uint8_t { Skip, X, Y, Z, Nx, Ny, Nz, U, V, R, G, B, Indices, FaceIndex };
+enum class Slot : uint8_t { Skip, X, Y, Z, Nx, Ny, Nz, U, V, R, G, B, Indices, FaceIndex, FaceR, FaceG, FaceB };
 
 struct Property {
   std::string name;
@@ -79,7 +79,7 @@ struct Header {
   size_t data_offset = 0;  // first byte after end_header's line
   int data_line = 0;       // that byte's line
   int vertex = -1, face = -1;
-  bool normals = false, uvs = false, colors = false, face_indices = false;
+  bool normals = false, uvs = false, colors = false, face_indices = false, face_colors = false;
 };
 
 std::string quoted(std::string_view s) {
@@ -276,6 +276,8 @@ class HeaderParser {
       p->slot = Slot::FaceIndex;
       h_.face_indices = true;
     }
+    for (auto rgb : {std::array<std::string_view, 3>{"r", "g", "b"}, {"red", "green", "blue"}})
+      if (!h_.face_colors && all_scalars(f, rgb)) h_.face_colors = group(f, {rgb[0], rgb[1], rgb[2]}, Slot::FaceR);
   }
 
   // The fewest bytes an entry of `e` can take: binary, every scalar and list
@@ -530,6 +532,7 @@ void read_faces(Source& src, const Header& h, const Element& e, PlyMesh& m) {
   for (uint64_t i = 0; i < e.count; ++i) {
     src.begin_entry("face", i);
     int64_t face_index = 0;
+    Color color;
     for (const Property& p : e.props) {
       if (p.slot == Slot::Indices) {
         int64_t n = src.integer(p.count_type);
@@ -556,12 +559,16 @@ void read_faces(Source& src, const Header& h, const Element& e, PlyMesh& m) {
       } else if (p.slot == Slot::FaceIndex) {
         face_index = src.integer(p.type);
         if (face_index < INT32_MIN || face_index > INT32_MAX) src.fail("face_indices value out of the int32 range");
+      } else if (p.slot >= Slot::FaceR && p.slot <= Slot::FaceB) {
+        const double v = src.real(p.type);
+        color[int(p.slot) - int(Slot::FaceR)] = is_integer(p.type) ? color_value(v, p.type) : float(v);
       } else {
         skip_property(src, p);
       }
     }
     src.end_entry();
     if (h.face_indices) m.face_indices.resize(m.indices.size() / 3, (int32_t)face_index);
+    if (h.face_colors) m.face_colors.resize(m.indices.size() / 3, color);
   }
 }
 
@@ -596,7 +603,9 @@ PlyMesh read_ply_memory(const std::string& name, const char* data, size_t size) 
   if (h.vertex >= 0)
     need += h.elements[size_t(h.vertex)].count * (sizeof(Vec3) + (h.normals ? sizeof(Vec3) : 0) + (h.uvs ? sizeof(Vec2) : 0) +
                                                   (h.colors ? sizeof(Vec3) : 0));
-  if (h.face >= 0) need += h.elements[size_t(h.face)].count * (3 * sizeof(uint32_t) + (h.face_indices ? sizeof(int32_t) : 0));
+  if (h.face >= 0)
+    need += h.elements[size_t(h.face)].count *
+            (3 * sizeof(uint32_t) + (h.face_indices ? sizeof(int32_t) : 0) + (h.face_colors ? sizeof(Color) : 0));
   require_memory(need, name, "its vertices and faces");
   if (h.format == Format::Ascii) return read_data(AsciiSource(name, data, size, h), h);
   return read_data(BinarySource(name, data, size, h), h);

@@ -31,6 +31,10 @@ struct PlyMesh {
   // Empty when every face is a triangle; else each face's first triangle,
   // one per face (pbrt-v4 makes each face a shape of its own).
   std::vector<uint32_t> face_first_triangle;
+  // Empty, or one per output triangle: its face's colour (face properties
+  // r, g, b or red, green, blue, read as vertex colours are: Mitsuba 3's
+  // face_color).
+  std::vector<Color> face_colors;
   // pbrt-v4's per-face material index (face property "face_indices"): empty,
   // or one per output triangle.
   std::vector<int32_t> face_indices;

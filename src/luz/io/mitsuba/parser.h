@@ -214,8 +214,9 @@ class MitsubaParser {
   void parse_shapegroup(pugi::xml_node n);
   void parse_instance(pugi::xml_node n);
   void add_shape(pugi::xml_node n, int64_t object);
-  void read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, bool colored, std::vector<Vec3>& pos,
-                     std::vector<Vec3>& nrm, std::vector<Vec2>& uv, std::vector<Color>& col, std::vector<uint32_t>& idx);
+  void read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, bool colored, bool face_colored,
+                     std::vector<Vec3>& pos, std::vector<Vec3>& nrm, std::vector<Vec2>& uv, std::vector<Color>& col,
+                     std::vector<uint32_t>& idx);
 
   std::string path_;
   Defines defines_;
@@ -224,6 +225,9 @@ class MitsubaParser {
   pugi::xml_document doc_;
   std::map<std::string, uint32_t> bsdfs_;
   std::map<std::string, uint32_t> textures_;  // top-level <texture id>, by id
+  std::set<int32_t> face_color_textures_;      // mesh_attribute face_color (the others: vertex_color)
+  // Which colours material m reads: 1 vertex_color, 2 face_color (a bit each).
+  int colour_attributes(uint32_t m) const;
   std::map<std::string, uint32_t> shapegroups_;  // the builder's objects, by id
   std::map<std::string, std::vector<uint8_t>> serialized_files_;  // by path
   ReadAhead<std::shared_ptr<const ObjFile>> objs_ahead_;

@@ -158,7 +158,9 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
   // Vertex colours (mesh_attribute) likewise: kept where the material reads them.
   const Material& mat = builder_.scene().materials[size_t(material)];
   const bool textured = builder_.material_reads_uv(uint32_t(material)) || area.texture >= 0;
-  const bool colored = builder_.material_reads_colors(uint32_t(material));
+  const int colours = colour_attributes(uint32_t(material));
+  if (colours == 3) error(n, "a material reading both vertex_color and face_color is not supported");
+  const bool colored = colours == 1, face_colored = colours == 2;
   std::vector<Vec3> pos, nrm;
   std::vector<Vec2> uv;
   std::vector<Color> col;
@@ -259,7 +261,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
       const bool flip_uv = p.get_bool("flip_tex_coords", true);
       p.check_all_used();
       if (full.extension() == ".ply") {  // mesh_file's fallback: the same mesh as PLY
-        read_mesh_ply(full, flip_uv, textured, colored, pos, nrm, uv, col, idx);
+        read_mesh_ply(full, flip_uv, textured, colored, face_colored, pos, nrm, uv, col, idx);
       } else {
         const std::optional<std::shared_ptr<const ObjFile>> ahead = objs_ahead_.take(full.string());
         ObjMesh mesh = obj_mesh(ahead ? **ahead : *read_obj_file(full.string()),
@@ -276,7 +278,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
       // Mitsuba 3's ply flips v by default too (flip_tex_coords, default true).
       const bool flip_uv = p.get_bool("flip_tex_coords", true);
       p.check_all_used();
-      read_mesh_ply(full, flip_uv, textured, colored, pos, nrm, uv, col, idx);
+      read_mesh_ply(full, flip_uv, textured, colored, face_colored, pos, nrm, uv, col, idx);
     } else {
       const long index = p.get_int("shape_index", 0);
       p.check_all_used();
@@ -294,8 +296,9 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
       face_normals = face_normals || mesh.face_normals;
     }
     if (face_normals) nrm.clear();
-    if (colored && col.empty())
-      error(n, "the material reads vertex colours (mesh_attribute), and '" + file + "' has none");
+    if ((colored || face_colored) && col.empty())
+      error(n, std::string("the material reads ") + (colored ? "vertex" : "face") +
+                   " colours (mesh_attribute), and '" + file + "' has none");
     if (textured && uv.empty()) {
       // Mitsuba 3 takes such a mesh's tangents from the normal alone, which
       // a normal or bump map would need here too.
@@ -313,13 +316,13 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
   for (Vec3& v : nrm) v = to_world.normal(v);
   // From the world's positions and the file's winding, as Mitsuba does.
   if (!analytic && !face_normals && (nrm.empty() || smooth_angle >= 0)) {
-    compute_vertex_normals(pos, idx, uv, nrm, smooth_angle, &col);
+    compute_vertex_normals(pos, idx, uv, nrm, smooth_angle, colored ? &col : nullptr);
     // Planar faces that share no vertex across an edge (a box's walls):
     // every normal is its faces' own, which flat shading gives exactly and
     // sooner.
     if (normals_are_flat(pos, idx, nrm)) nrm.clear();
   }
-  if (barycentric_uv) {
+  if (barycentric_uv || face_colored) {
     // Mitsuba 3's uv where a mesh has none: each face's barycentrics (b1, b2)
     // of its second and third vertices. Every face gets its own three
     // vertices, at uv (0, 0), (1, 0), (0, 1), after the smooth normals.
@@ -328,18 +331,21 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
     face_pos.reserve(idx.size());
     face_nrm.reserve(nrm.empty() ? 0 : idx.size());
     face_col.reserve(col.empty() ? 0 : idx.size());
-    uv.clear();
-    uv.reserve(idx.size());
+    std::vector<Vec2> face_uv;
+    face_uv.reserve(barycentric_uv || !uv.empty() ? idx.size() : 0);
     for (size_t k = 0; k < idx.size(); ++k) {
       face_pos.push_back(pos[idx[k]]);
       if (!nrm.empty()) face_nrm.push_back(nrm[idx[k]]);
-      if (!col.empty()) face_col.push_back(col[idx[k]]);
-      uv.push_back(k % 3 == 0 ? Vec2{0, 0} : k % 3 == 1 ? Vec2{1, 0} : Vec2{0, 1});
+      // Face colours: one per triangle (read_mesh_ply), given to its corners.
+      if (!col.empty()) face_col.push_back(face_colored ? col[k / 3] : col[idx[k]]);
+      if (barycentric_uv) face_uv.push_back(k % 3 == 0 ? Vec2{0, 0} : k % 3 == 1 ? Vec2{1, 0} : Vec2{0, 1});
+      else if (!uv.empty()) face_uv.push_back(uv[idx[k]]);
       idx[k] = uint32_t(k);
     }
     pos = std::move(face_pos);
     nrm = std::move(face_nrm);
     col = std::move(face_col);
+    uv = std::move(face_uv);
   }
   for (size_t k = 0; k + 2 < idx.size(); k += 3) {
     Vec3 g = cross(pos[idx[k + 1]] - pos[idx[k]], pos[idx[k + 2]] - pos[idx[k]]);
@@ -356,7 +362,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
 }
 
 // A PLY mesh's arrays; v flipped (1 - v) when flip_uv.
-void MitsubaParser::read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, bool colored,
+void MitsubaParser::read_mesh_ply(const fs::path& full, bool flip_uv, bool textured, bool colored, bool face_colored,
                                   std::vector<Vec3>& pos, std::vector<Vec3>& nrm, std::vector<Vec2>& uv,
                                   std::vector<Color>& col, std::vector<uint32_t>& idx) {
   std::optional<PlyMesh> ahead = plys_ahead_.take(full.string());
@@ -365,6 +371,7 @@ void MitsubaParser::read_mesh_ply(const fs::path& full, bool flip_uv, bool textu
   nrm = std::move(mesh.normals);
   if (textured) uv = std::move(mesh.uvs);
   if (colored) col = std::move(mesh.colors);
+  if (face_colored) col = std::move(mesh.face_colors);  // one per triangle until add_shape gives each its corners
   if (flip_uv)
     for (Vec2& t : uv) t.y = 1.f - t.y;
   idx = std::move(mesh.indices);

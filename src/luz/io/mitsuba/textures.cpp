@@ -94,14 +94,18 @@ int32_t MitsubaParser::parse_texture(pugi::xml_node t, bool load) {
   Props p(this, t);
   if (type == "mesh_attribute") {
     // The shape's vertex colours (its PLY file's r, g, b or red, green, blue;
-    // a serialized file's colours), times `scale`.
+    // a serialized file's colours; an OBJ's), or its PLY file's face
+    // colours (each face's triangles get vertices of their own: add_shape),
+    // times `scale`.
     const std::string name = p.get_string("name", "");
-    if (name != "vertex_color")
-      error(t, "mesh attribute '" + name + "' is not supported (supported: vertex_color)");
+    if (name != "vertex_color" && name != "face_color")
+      error(t, "mesh attribute '" + name + "' is not supported (supported: vertex_color, face_color)");
     const double scale = p.get_float("scale", 1.0);
     p.check_all_used();
     if (!load) return -1;
-    return builder_.add_vertex_color_texture(loc(t), Color{1.f, 1.f, 1.f} * float(scale));
+    const int32_t index = builder_.add_vertex_color_texture(loc(t), Color{1.f, 1.f, 1.f} * float(scale));
+    if (name == "face_color") face_color_textures_.insert(index);
+    return index;
   }
   const UvTransform to_uv = uv_transform(t, p);
   if (type == "checkerboard") {
@@ -153,6 +157,24 @@ int32_t MitsubaParser::parse_texture(pugi::xml_node t, bool load) {
   const fs::path full = resolve_file(t, file, "bitmap");
   if (!load) return -1;
   return builder_.add_image_texture(loc(t), {full.string(), bm.srgb, bm.filter, bm.wrap, to_uv});
+}
+
+int MitsubaParser::colour_attributes(uint32_t m) const {
+  const Scene& s = builder_.scene();
+  const Material& mat = s.materials.at(m);
+  int kinds = 0;
+  auto leaf = [&](int32_t t) {
+    if (t >= 0 && s.textures[size_t(t)].type == TextureType::VertexColor) kinds |= face_color_textures_.count(t) ? 2 : 1;
+  };
+  auto texture = [&](int32_t t) {
+    if (t < 0) return;
+    const Texture& x = s.textures[size_t(t)];
+    if (x.type != TextureType::Mix) return leaf(t);
+    leaf(x.mix.a), leaf(x.mix.b), leaf(x.mix.amount);
+  };
+  for (uint32_t k = 0; k < mat.num_bindings; ++k) texture(s.texture_bindings[mat.first_binding + k].texture);
+  texture(mat.opacity_texture);
+  return kinds;
 }
 
 bool MitsubaParser::is_texture_ref(pugi::xml_node c) const {
