@@ -5,7 +5,7 @@
 // environment gives the directional albedo of the specification's BRDF
 // (quadrature); primitives' modes, index types, transforms, materials and
 // lights from small files written here; COLOR_0 times the base colour;
-// KHR_materials_specular's factors and textures;
+// KHR_materials_specular's and KHR_materials_clearcoat's factors and textures;
 // malformed and truncated files give
 // one InputError naming the file.
 #include <gtest/gtest.h>
@@ -656,6 +656,50 @@ TEST_F(GltfFiles, SpecularExtensionFactorsAndTextures) {
                                 "specularFactor must lie in [0, 1]");
   luz_test::expect_load_refused(gltf("bad3.gltf", bin, doc("\"specularTexture\":{\"texCoord\":0}")), "bad3.gltf",
                                 "specularTexture needs an index");
+}
+
+// KHR_materials_clearcoat: clearcoatFactor times clearcoatTexture's R is the
+// coat's weight, clearcoatRoughnessFactor times clearcoatRoughnessTexture's
+// G its roughness (linear); a zero factor disables the coat; what Luz
+// leaves out (the coat's own normal texture, the coat on a transmitting
+// material) is warned about; bad factors are errors.
+TEST_F(GltfFiles, ClearcoatExtensionFactorsAndTextures) {
+  four_texels();
+  const std::string bin = textured_quad_bin();
+  auto doc = [&](const std::string& coat, const std::string& more = "") {
+    return textured_quad_json() + ",\"textures\":[{\"source\":0}],\"materials\":[{"
+           "\"pbrMetallicRoughness\":{\"metallicFactor\":0},\"extensions\":{\"KHR_materials_clearcoat\":{" + coat + "}" +
+           more + "}}]";
+  };
+  Scene c = load_scene(gltf("constant.gltf", bin, doc("\"clearcoatFactor\":0.6,\"clearcoatRoughnessFactor\":0.2")));
+  EXPECT_EQ(c.materials[0].num_bindings, 0u);
+  EXPECT_EQ(c.materials[0].bsdf.gltf_pbr.clearcoat, 0.6f);
+  EXPECT_EQ(c.materials[0].bsdf.gltf_pbr.clearcoat_roughness, 0.2f);
+  Scene off = load_scene(gltf("off.gltf", bin, doc("\"clearcoatFactor\":0,\"clearcoatTexture\":{\"index\":0}")));
+  EXPECT_EQ(off.materials[0].bsdf.gltf_pbr.clearcoat, 0.f);
+  EXPECT_EQ(off.materials[0].num_bindings, 0u);
+  Scene t = load_scene(gltf("textured.gltf", bin,
+                            doc("\"clearcoatFactor\":0.5,\"clearcoatTexture\":{\"index\":0},"
+                                "\"clearcoatRoughnessFactor\":0.8,\"clearcoatRoughnessTexture\":{\"index\":0},"
+                                "\"clearcoatNormalTexture\":{\"index\":0}")));
+  const Material& m = t.materials[0];
+  ASSERT_EQ(m.num_bindings, 2u);
+  EXPECT_EQ(t.texture_bindings[m.first_binding].param, BsdfParam::Clearcoat);
+  EXPECT_EQ(t.textures[size_t(t.texture_bindings[m.first_binding].texture)].bitmap.channel, TextureChannel::R);
+  EXPECT_EQ(t.texture_bindings[m.first_binding + 1].param, BsdfParam::ClearcoatRoughness);
+  EXPECT_EQ(t.textures[size_t(t.texture_bindings[m.first_binding + 1].texture)].bitmap.channel, TextureChannel::G);
+  // At the red texel (top left): weight 0.5 · 1, roughness 0.8 · 0.
+  const SceneView v = t.view();
+  const Bsdf at = v.materials.bsdf(0, v.textures, {0.25f, 0.25f});
+  EXPECT_NEAR(at.gltf_pbr.clearcoat, 0.5f, 1e-6f);
+  EXPECT_NEAR(at.gltf_pbr.clearcoat_roughness, 0.f, 1e-6f);
+  EXPECT_TRUE(luz_test::has_warning(t, "clearcoatNormalTexture is ignored"));
+  Scene sheet = load_scene(gltf("sheet.gltf", bin,
+                                doc("\"clearcoatFactor\":0.5", ",\"KHR_materials_transmission\":{\"transmissionFactor\":1}")));
+  EXPECT_TRUE(luz_test::has_warning(sheet, "KHR_materials_clearcoat on a transmitting material is not supported"));
+  EXPECT_EQ(sheet.materials[0].bsdf.gltf_pbr_transmission.surface.clearcoat, 0.f);
+  luz_test::expect_load_refused(gltf("bad.gltf", bin, doc("\"clearcoatFactor\":1.5")), "bad.gltf",
+                                "clearcoatFactor must lie in [0, 1]");
 }
 
 // Normal textures (§3.9.3, tangents by MikkTSpace where TANGENT is absent):

@@ -52,7 +52,7 @@ bool same_bytes(const std::vector<T>& a, const std::vector<T>& b) {
 // A BSDF's type and parameters (what a texture's mean sets; padding aside).
 std::vector<float> parameters(luz::Bsdf b) {
   std::vector<float> out{float(b.type)};
-  for (int k = 0; k <= int(luz::BsdfParam::SpecularColor); ++k) {
+  for (int k = 0; k <= int(luz::BsdfParam::ClearcoatRoughness); ++k) {
     if (const luz::Color* c = luz::color_param(b, luz::BsdfParam(k))) out.insert(out.end(), {c->x, c->y, c->z});
     if (const float* f = luz::float_param(b, luz::BsdfParam(k))) out.push_back(*f);
   }

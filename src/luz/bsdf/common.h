@@ -29,6 +29,8 @@ enum class BsdfParam : uint8_t {
   Transmission,   // KHR_materials_transmission
   Specular,       // KHR_materials_specular: the strength
   SpecularColor,  // and the F0 colour
+  Clearcoat,      // KHR_materials_clearcoat: the coat's weight
+  ClearcoatRoughness,
 };
 
 // What is transported along the path: radiance (camera paths, the path

@@ -16,6 +16,14 @@
 //                c = 1, s = 1 (the core): F = f0 + (1 - f0) w, the mix of §B.3.5
 //   f = mix(dielectric, metal, metallic)
 //
+// KHR_materials_clearcoat (clearcoat c, coat roughness r_c) layers a GGX
+// reflection over all of it, as the extension's fresnel_coat:
+//   f_coated = (1 - c F_c) f + c F_c D_c V_c,  F_c = 0.04 + 0.96 (1 - n·wo)⁵,
+// D_c V_c the specular_brdf of α_c = r_c² (the coat's IOR is 1.5). F_c is
+// taken at n·wo, not at the half vector, as the extension does for energy
+// conservation: the coated f is not reciprocal (the path tracer evaluates
+// it with wo towards the camera).
+//
 // Reciprocal (|wo·h| = |wi·h|). Not energy conserving in general, as the
 // specification says of its approximations: near grazing incidence the
 // diffuse part is weighted by 1 - F at the half vectors of diffuse
@@ -38,6 +46,8 @@
 //   P_s = max(s, 0.01) / (max(s, 0.01) + d)
 // (P_s = 1 exactly when the diffuse lobe is zero, so pdf > 0 wherever f > 0).
 // pdf() is the mixture's solid-angle density; sample() returns f cos / pdf.
+// A coat is sampled first with probability c F_c (its visible normals),
+// the rest as above.
 //
 // Scene-file names (glTF's): baseColorFactor/Texture -> base_color,
 // metallicFactor (B channel) -> metallic, roughnessFactor (G channel) ->
@@ -60,7 +70,8 @@ struct GltfPbrBsdf {
   }
   LUZ_INLINE float* float_param(BsdfParam p) {
     return p == BsdfParam::Metallic ? &metallic : p == BsdfParam::Roughness ? &roughness
-         : p == BsdfParam::Specular ? &specular_strength : nullptr;
+         : p == BsdfParam::Specular ? &specular_strength : p == BsdfParam::Clearcoat ? &clearcoat
+         : p == BsdfParam::ClearcoatRoughness ? &clearcoat_roughness : nullptr;
   }
   // glTF's defaults.
   Color base_color{1.f, 1.f, 1.f};
@@ -70,6 +81,9 @@ struct GltfPbrBsdf {
   // exceed 1; f0 times it is clamped to 1) and the strength in [0, 1].
   Color specular_color{1.f, 1.f, 1.f};
   float specular_strength = 1.f;
+  // KHR_materials_clearcoat (0: none). Not on the transmitting sheet (the
+  // loader leaves it out there).
+  float clearcoat = 0.f, clearcoat_roughness = 0.f;
 
   LUZ_INLINE static float ior_to_f0(float ior) {
     float r = (ior - 1.f) / (ior + 1.f);
@@ -93,11 +107,26 @@ struct GltfPbrBsdf {
   }
 
   // specular_brdf(wo, wi) = D V.
-  LUZ_INLINE float specular(Vec3 wo, Vec3 wi, Vec3 h) const {
-    const MicrofacetDistribution d = dist();
+  LUZ_INLINE float specular(Vec3 wo, Vec3 wi, Vec3 h) const { return specular_brdf(dist(), wo, wi, h); }
+  LUZ_INLINE static float specular_brdf(const MicrofacetDistribution& d, Vec3 wo, Vec3 wi, Vec3 h) {
     return d.D(h) * d.G1(wo, h) * d.G1(wi, h) / (4.f * wo.z * wi.z);
   }
-  LUZ_INLINE Color f(Vec3 wo, Vec3 wi) const { return reflection(wo, wi, 1.f); }
+  // The coat: its weight c F_c at wo (0 without one) and distribution.
+  LUZ_INLINE float coat_weight(float cos_o) const {
+    const float c = clamp(clearcoat, 0.f, 1.f);
+    return c > 0.f ? c * (0.04f + 0.96f * schlick_weight(cos_o)) : 0.f;
+  }
+  LUZ_INLINE MicrofacetDistribution coat_dist() const {
+    const float r = clamp(clearcoat_roughness, 0.f, 1.f);
+    return MicrofacetDistribution::make(MicrofacetType::GGX, r * r, r * r);
+  }
+  LUZ_INLINE Color f(Vec3 wo, Vec3 wi) const {
+    const Color base = reflection(wo, wi, 1.f);
+    const float k = coat_weight(wo.z);
+    if (!(k > 0.f) || !(wo.z > 0.f) || !(wi.z > 0.f)) return base;
+    const float coat = specular_brdf(coat_dist(), wo, wi, normalize(wo + wi));
+    return base * (1.f - k) + Color{coat, coat, coat} * k;
+  }
   // f with the diffuse part scaled by `diffuse` (1 - transmission).
   LUZ_INLINE Color reflection(Vec3 wo, Vec3 wi, float diffuse) const {
     if (!(wo.z > 0.f) || !(wi.z > 0.f)) return {};
@@ -124,10 +153,22 @@ struct GltfPbrBsdf {
     const Vec3 h = normalize(wo + wi);
     const float woh = dot(wo, h);
     const float spec = woh > 0.f ? dist().pdf_visible(wo, h) / (4.f * woh) : 0.f;
-    return ps * spec + (1.f - ps) * cosine_hemisphere_pdf(wi);
+    const float base = ps * spec + (1.f - ps) * cosine_hemisphere_pdf(wi);
+    const float k = coat_weight(wo.z);
+    if (!(k > 0.f)) return base;
+    const float coat = woh > 0.f ? coat_dist().pdf_visible(wo, h) / (4.f * woh) : 0.f;
+    return k * coat + (1.f - k) * base;
   }
   LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2) const {
     if (!(wo.z > 0.f)) return {};
+    const float k = coat_weight(wo.z);
+    if (k > 0.f) {
+      if (u1 < k) {
+        const MicrofacetDistribution c = coat_dist();
+        return sample_facet_or_cosine(*this, wo, true, u2, [&](Vec2 u) { return c.sample_visible_ggx(wo, u); });
+      }
+      u1 = min((u1 - k) / (1.f - k), 0x1.fffffep-1f);
+    }
     const float ps = specular_probability(wo.z);
     const MicrofacetDistribution d = dist();
     return sample_facet_or_cosine(*this, wo, u1 < ps, u2, [&](Vec2 u) { return d.sample_visible_ggx(wo, u); });

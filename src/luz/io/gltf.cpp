@@ -32,7 +32,11 @@
 //    rasteriser's culling, followed by rays, would let light leak through
 //    single-sided walls).
 //    KHR_materials_ior sets the dielectric f0; KHR_materials_specular its
-//    strength and F0 colour (factors and textures); KHR_materials_transmission
+//    strength and F0 colour (factors and textures); KHR_materials_clearcoat
+//    layers gltf_pbr.h's coat over it (factors and textures; the coat takes
+//    the base's shading normal, its own normal texture ignored with a
+//    warning; emission is not darkened by it; not on transmitting
+//    materials); KHR_materials_transmission
 //    (factor, texture's R) makes it gltf_pbr.h's thin transmitting sheet
 //    (two-sided whatever doubleSided says; KHR_materials_volume ignored).
 //  - Emission: emissiveFactor × emissiveTexture × KHR_materials_emissive_strength
@@ -276,7 +280,8 @@ class GltfLoader {
   void check_extensions() {
     static const std::set<std::string> supported = {
         "KHR_texture_transform", "KHR_materials_emissive_strength", "KHR_lights_punctual", "KHR_materials_ior",
-        "KHR_mesh_quantization", "KHR_materials_transmission", "KHR_materials_specular"};
+        "KHR_mesh_quantization", "KHR_materials_transmission", "KHR_materials_specular",
+        "KHR_materials_clearcoat"};
     for (const std::string& e : model_.extensionsRequired)
       if (!supported.count(e)) fail("", "requires extension " + e + ", which Luz does not support");
     // Optional ones are left out with a word (KHR_materials_volume: where a
@@ -1051,26 +1056,51 @@ class GltfLoader {
       bindings.insert(bindings.begin(), {t, BsdfPart::Front, BsdfParam::BaseColor});
       surface.base_color = builder_.texture_stats(t).mean;
     }
-    if (transmission_tex.index >= 0) {
+    // An extension's texture (its channel, times the factor) bound to a parameter: its mean.
+    auto bind = [&](const ExtensionTexture& x, TextureChannel channel, bool srgb, Color factor, const char* name,
+                    BsdfParam param) {
       Color mean;
-      const int32_t t = texture(transmission_tex.index, transmission_tex.set, transmission_tex.ext, TextureChannel::R, false,
-                                Color{1.f, 1.f, 1.f} * transmission, where + ".transmissionTexture", info.uv_set, &mean);
-      bindings.push_back({t, BsdfPart::Front, BsdfParam::Transmission});
-      b.gltf_pbr_transmission.transmission = mean.x;
-    }
-    if (specular_tex.index >= 0) {
-      Color mean;
-      const int32_t t = texture(specular_tex.index, specular_tex.set, specular_tex.ext, TextureChannel::A, false,
-                                Color{1.f, 1.f, 1.f} * specular, where + ".specularTexture", info.uv_set, &mean);
-      bindings.push_back({t, BsdfPart::Front, BsdfParam::Specular});
-      surface.specular_strength = mean.x;
-    }
-    if (specular_color_tex.index >= 0) {
-      Color mean;
-      const int32_t t = texture(specular_color_tex.index, specular_color_tex.set, specular_color_tex.ext, TextureChannel::Rgb,
-                                true, specular_color, where + ".specularColorTexture", info.uv_set, &mean);
-      bindings.push_back({t, BsdfPart::Front, BsdfParam::SpecularColor});
-      surface.specular_color = mean;
+      const int32_t t = texture(x.index, x.set, x.ext, channel, srgb, factor, where + "." + name, info.uv_set, &mean);
+      bindings.push_back({t, BsdfPart::Front, param});
+      return mean;
+    };
+    const Color one{1.f, 1.f, 1.f};
+    if (transmission_tex.index >= 0)
+      b.gltf_pbr_transmission.transmission =
+          bind(transmission_tex, TextureChannel::R, false, one * transmission, "transmissionTexture", BsdfParam::Transmission).x;
+    if (specular_tex.index >= 0)
+      surface.specular_strength = bind(specular_tex, TextureChannel::A, false, one * specular, "specularTexture", BsdfParam::Specular).x;
+    if (specular_color_tex.index >= 0)
+      surface.specular_color =
+          bind(specular_color_tex, TextureChannel::Rgb, true, specular_color, "specularColorTexture", BsdfParam::SpecularColor);
+    // KHR_materials_clearcoat: the coat's weight (R of its texture) and
+    // roughness (G of its texture); a zero clearcoatFactor disables it.
+    const float clearcoat = unit(extension_number(m.extensions, "KHR_materials_clearcoat", "clearcoatFactor", 0.0, where),
+                                 "clearcoatFactor");
+    const float clearcoat_roughness =
+        unit(extension_number(m.extensions, "KHR_materials_clearcoat", "clearcoatRoughnessFactor", 0.0, where),
+             "clearcoatRoughnessFactor");
+    const ExtensionTexture coat_tex = extension_texture(m.extensions, "KHR_materials_clearcoat", "clearcoatTexture", where);
+    const ExtensionTexture coat_rough_tex =
+        extension_texture(m.extensions, "KHR_materials_clearcoat", "clearcoatRoughnessTexture", where);
+    const ExtensionTexture coat_normal_tex =
+        extension_texture(m.extensions, "KHR_materials_clearcoat", "clearcoatNormalTexture", where);
+    const bool coated = clearcoat > 0.f && !transmissive;
+    if (clearcoat > 0.f && transmissive)
+      warn(where + ": KHR_materials_clearcoat on a transmitting material is not supported: rendered without the coat");
+    if (coated) {
+      surface.clearcoat = clearcoat;
+      surface.clearcoat_roughness = clearcoat_roughness;
+      if (coat_tex.index >= 0)
+        surface.clearcoat = bind(coat_tex, TextureChannel::R, false, one * clearcoat, "clearcoatTexture", BsdfParam::Clearcoat).x;
+      if (coat_rough_tex.index >= 0)
+        surface.clearcoat_roughness = bind(coat_rough_tex, TextureChannel::G, false, one * clearcoat_roughness,
+                                           "clearcoatRoughnessTexture", BsdfParam::ClearcoatRoughness).x;
+      // Luz shades the whole material in one frame: the coat takes the base's.
+      if (coat_normal_tex.index >= 0)
+        warn(where + ": clearcoatNormalTexture is ignored (the coat follows the base's shading normal)");
+      else if (m.normalTexture.index >= 0)
+        warn(where + ": the clear coat follows the base's normal texture (the extension leaves it unmapped)");
     }
     if (pbr.metallicRoughnessTexture.index >= 0) {
       Color mean;
@@ -1133,6 +1163,8 @@ class GltfLoader {
     d.normal_map = normal_map;
     d.normal_scale = float(m.normalTexture.scale);
     d.normal_y_by_uv = true;
+    if (info.emissive && coated)
+      warn(where + ": the emission is not darkened by the clear coat's Fresnel (KHR_materials_clearcoat's coated_emission)");
     if (info.emissive && d.masked()) {
       warn(where + ": an emissive material with alphaMode MASK or BLEND is rendered without its emission");
       info.emissive = false, info.emission_texture = -1;
