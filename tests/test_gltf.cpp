@@ -650,6 +650,12 @@ TEST_F(GltfFiles, SpecularExtensionFactorsAndTextures) {
   EXPECT_NEAR(at.gltf_pbr.specular_strength, 0.3f, 1e-6f);
   EXPECT_NEAR(at.gltf_pbr.specular_color.x, 0.f, 1e-6f);
   EXPECT_NEAR(at.gltf_pbr.specular_color.y, 1.f, 1e-6f);
+  // Specular-glossiness carried by the extension (its README's conversion):
+  // KHR_materials_ior's ior 0 is f0 = 1, so F0 is the specular colour.
+  Scene sg = load_scene(gltf("sg.gltf", bin, doc("\"specularColorFactor\":[0.2,0.5,0.9]},\"KHR_materials_ior\":{\"ior\":0")));
+  EXPECT_EQ(sg.materials[0].bsdf.gltf_pbr.f0, 1.f);
+  luz_test::expect_load_refused(gltf("ior.gltf", bin, doc("},\"KHR_materials_ior\":{\"ior\":0.5")), "ior.gltf",
+                                "KHR_materials_ior's ior must be 0 or >= 1");
   luz_test::expect_load_refused(gltf("bad1.gltf", bin, doc("\"specularColorFactor\":[1,-1,1]")), "bad1.gltf",
                                 "specularColorFactor must be finite and >= 0");
   luz_test::expect_load_refused(gltf("bad2.gltf", bin, doc("\"specularFactor\":2")), "bad2.gltf",
@@ -697,7 +703,12 @@ TEST_F(GltfFiles, ClearcoatExtensionFactorsAndTextures) {
   Scene sheet = load_scene(gltf("sheet.gltf", bin,
                                 doc("\"clearcoatFactor\":0.5", ",\"KHR_materials_transmission\":{\"transmissionFactor\":1}")));
   EXPECT_TRUE(luz_test::has_warning(sheet, "KHR_materials_clearcoat on a transmitting material is not supported"));
-  EXPECT_EQ(sheet.materials[0].bsdf.gltf_pbr_transmission.surface.clearcoat, 0.f);
+  EXPECT_EQ(sheet.materials[0].bsdf.type, BsdfType::GltfPbrTransmission);
+  // A transmission texture times the default factor 0 is no transmission: the coat stays.
+  Scene opaque = load_scene(gltf("opaque.gltf", bin, doc("\"clearcoatFactor\":0.5",
+                                                          ",\"KHR_materials_transmission\":{\"transmissionTexture\":{\"index\":0}}")));
+  EXPECT_EQ(opaque.materials[0].bsdf.type, BsdfType::GltfPbr);
+  EXPECT_EQ(opaque.materials[0].bsdf.gltf_pbr.clearcoat, 0.5f);
   luz_test::expect_load_refused(gltf("bad.gltf", bin, doc("\"clearcoatFactor\":1.5")), "bad.gltf",
                                 "clearcoatFactor must lie in [0, 1]");
 }

@@ -1004,7 +1004,9 @@ class GltfLoader {
     const float metallic = unit(pbr.metallicFactor, "metallicFactor");
     const float roughness = unit(pbr.roughnessFactor, "roughnessFactor");
     const double ior = extension_number(m.extensions, "KHR_materials_ior", "ior", 1.5, where);
-    if (!(ior >= 1.0)) fail(where, "KHR_materials_ior's ior must be >= 1");
+    // 0: the extension's full-weight Fresnel (f0 = 1), with which
+    // KHR_materials_specular carries specular-glossiness materials.
+    if (!(ior >= 1.0 || ior == 0.0)) fail(where, "KHR_materials_ior's ior must be 0 or >= 1");
     // KHR_materials_transmission: a thin sheet (KHR_materials_volume's
     // thickness is not modelled).
     const float transmission = unit(extension_number(m.extensions, "KHR_materials_transmission", "transmissionFactor", 0.0, where),
@@ -1030,7 +1032,7 @@ class GltfLoader {
     const ExtensionTexture specular_tex = extension_texture(m.extensions, "KHR_materials_specular", "specularTexture", where);
     const ExtensionTexture specular_color_tex =
         extension_texture(m.extensions, "KHR_materials_specular", "specularColorTexture", where);
-    const bool transmissive = transmission > 0.f || transmission_tex.index >= 0;
+    const bool transmissive = transmission > 0.f;  // (its texture times a zero factor is none)
     if (transmissive && m.extensions.count("KHR_materials_volume"))
       warn(where + ": KHR_materials_volume is not supported; the transmission is a thin sheet");
     Bsdf b = transmissive ? Bsdf::make_gltf_pbr_transmission(base, metallic, roughness, transmission, float(ior))
@@ -1065,7 +1067,7 @@ class GltfLoader {
       return mean;
     };
     const Color one{1.f, 1.f, 1.f};
-    if (transmission_tex.index >= 0)
+    if (transmissive && transmission_tex.index >= 0)
       b.gltf_pbr_transmission.transmission =
           bind(transmission_tex, TextureChannel::R, false, one * transmission, "transmissionTexture", BsdfParam::Transmission).x;
     if (specular_tex.index >= 0)
