@@ -650,6 +650,23 @@ TEST_F(GltfFiles, SpecularExtensionFactorsAndTextures) {
   EXPECT_NEAR(at.gltf_pbr.specular_strength, 0.3f, 1e-6f);
   EXPECT_NEAR(at.gltf_pbr.specular_color.x, 0.f, 1e-6f);
   EXPECT_NEAR(at.gltf_pbr.specular_color.y, 1.f, 1e-6f);
+  // Texels of other values than 0 and 1: a 2×2 RGBA TGA (stored B, G, R, A,
+  // top row first). The strength reads A linearly, the colour RGB as sRGB.
+  const unsigned char tga[18 + 16] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 2, 0, 32, 8 | 0x20,
+                                      32, 64, 128, 255, 50, 100, 200, 128,  // top row
+                                      30, 20, 10, 64, 255, 255, 255, 0};    // bottom row
+  write("spec.tga", std::string(reinterpret_cast<const char*>(tga), sizeof tga));
+  std::string rgba = doc("\"specularFactor\":0.3,\"specularTexture\":{\"index\":0},"
+                         "\"specularColorFactor\":[2,1,0.5],\"specularColorTexture\":{\"index\":0}");
+  rgba.replace(rgba.find("tex.png"), 7, "spec.tga");
+  Scene r = load_scene(gltf("rgba.gltf", bin, rgba));
+  const SceneView rv = r.view();
+  const Bsdf texel = rv.materials.bsdf(0, rv.textures, {0.75f, 0.25f});  // top right: (200, 100, 50, 128)
+  auto srgb = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
+  EXPECT_NEAR(texel.gltf_pbr.specular_strength, 0.3 * 128 / 255.0, 1e-6);
+  EXPECT_NEAR(texel.gltf_pbr.specular_color.x, 2.0 * srgb(200 / 255.0), 1e-5);
+  EXPECT_NEAR(texel.gltf_pbr.specular_color.y, 1.0 * srgb(100 / 255.0), 1e-5);
+  EXPECT_NEAR(texel.gltf_pbr.specular_color.z, 0.5 * srgb(50 / 255.0), 1e-5);
   // Specular-glossiness carried by the extension (its README's conversion):
   // KHR_materials_ior's ior 0 is f0 = 1, so F0 is the specular colour.
   Scene sg = load_scene(gltf("sg.gltf", bin, doc("\"specularColorFactor\":[0.2,0.5,0.9]},\"KHR_materials_ior\":{\"ior\":0")));
