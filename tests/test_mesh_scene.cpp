@@ -11,6 +11,7 @@
 #include "scene_helpers.h"
 #include "luz/io/image.h"
 #include "luz/io/mesh_obj.h"
+#include "luz/scene/scene_info.h"
 #include "temp_dir.h"
 
 namespace {
@@ -106,6 +107,8 @@ TEST_F(MeshSceneFiles, PlyVertexColoursAreItsReflectance) {
                               "0 0 0 1 0 0\n1 0 0 0 1 0\n0 1 0 0.2 0.4 0.6\n3 0 1 2\n");
   luz::Scene s = luz::load_scene(p);
   ASSERT_EQ(s.colors.size(), 3u);
+  EXPECT_NE(luz::describe_scene(s).find("shapes: 1 triangle, 0 spheres, 0 instances, with vertex colours"), std::string::npos)
+      << luz::describe_scene(s);
   const luz::SceneView v = s.view();
   luz::Hit hit;
   hit.prim = 0;

@@ -72,7 +72,8 @@ std::string describe_scene(const Scene& s) {
   std::string out;
   auto line = [&](const std::string& key, const std::string& value) { out += key + ": " + value + "\n"; };
   line("shapes", counted(s.num_triangles(), "triangle") + ", " + counted(s.spheres.size(), "sphere") + ", " +
-                     counted(s.instances.size() + s.flattened_instances, "instance"));
+                     counted(s.instances.size() + s.flattened_instances, "instance") +
+                     (s.colors.empty() ? "" : ", with vertex colours"));
   if (!s.objects.empty() || s.flattened_instances > 0) {
     uint64_t stored = 0;
     for (const SceneObject& o : s.objects) stored += o.num_triangles;
