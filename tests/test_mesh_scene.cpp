@@ -132,7 +132,8 @@ TEST_F(MeshSceneFiles, PlyVertexColoursAreItsReflectance) {
 TEST_F(MeshSceneFiles, ObjVertexColoursOnFacesWithoutAMaterial) {
   auto srgb = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
   write("m.mtl", "newmtl red\nKd 0.6 0.1 0.1\n");
-  luz::Scene s = luz::load_scene(write("c.obj", "mtllib m.mtl\nv 0 0 0 1 0 0.2\nv 1 0 0 0 0.5 0.2\nv 0 1 0 0 0 1\nv 1 1 0\n"
+  // (A seventh number, an alpha, is ignored, as tinyobjloader reads it.)
+  luz::Scene s = luz::load_scene(write("c.obj", "mtllib m.mtl\nv 0 0 0 1 0 0.2\nv 1 0 0 0 0.5 0.2 0.7\nv 0 1 0 0 0 1\nv 1 1 0\n"
                                                 "f 1 2 3\nusemtl red\nf 2 4 3\n"));
   EXPECT_TRUE(luz_test::has_warning(s, "1 vertices lack a colour where others have one: white"));
   EXPECT_TRUE(luz_test::has_warning(s, "1 triangles have an MTL material: the vertex colours are not used there"));
@@ -154,8 +155,19 @@ TEST_F(MeshSceneFiles, ObjVertexColoursOnFacesWithoutAMaterial) {
     }
   }
   EXPECT_EQ(seen, 1);
-  luz_test::expect_load_refused(write("bad.obj", "v 0 0 0\nv 1 0 0 0.5 1.5 0\nv 0 1 0\nf 1 2 3\n"), "bad.obj:2",
-                                "vertex colour '1.5' is not within [0, 1]");
+  // Colours outside [0, 1] (0-255 exporters): the file loads without them, with a warning.
+  luz::Scene bad = luz::load_scene(write("bad.obj", "v 0 0 0\nv 1 0 0 0.5 255 0\nv 0 1 0\nf 1 2 3\n"));
+  EXPECT_TRUE(bad.colors.empty());
+  EXPECT_TRUE(luz_test::has_warning(bad, "bad.obj:2: warning: vertex colour '255' is not within [0, 1]: the file's vertex colours are not used"));
+  // A PLY of face colours alone: each triangle shows its face's.
+  luz::Scene faces = luz::load_scene(write("f.ply", "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+                                                    "property float z\nelement face 2\nproperty list uchar int vertex_indices\n"
+                                                    "property float r\nproperty float g\nproperty float b\nend_header\n"
+                                                    "0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2 1 0 0\n3 0 2 3 0 0.5 1\n"));
+  ASSERT_EQ(faces.colors.size(), 6u);
+  EXPECT_EQ(faces.colors[2].x, 1.f);
+  EXPECT_EQ(faces.colors[3].y, 0.5f);
+  EXPECT_EQ(faces.positions[4].y, 1.f);  // the second face (0, 2, 3): its own copy of corner (1, 1)
 }
 
 TEST_F(MeshSceneFiles, MtlIllumModelsAndConstants) {

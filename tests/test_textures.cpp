@@ -869,6 +869,30 @@ TEST_F(VertexColors, FaceColoursAreConstantOverTheirFaces) {
       "both.xml", "a material reading both vertex_color and face_color is not supported");
 }
 
+// An OBJ's `v x y z r g b` feed Mitsuba's vertex_color too (Mitsuba 3's obj
+// plugin reads none): sRGB-decoded, per file vertex however the faces
+// de-index; a colour outside [0, 1] is then an error at its line.
+TEST_F(VertexColors, ObjColoursThroughMitsuba) {
+  const std::string attr = "<bsdf type=\"diffuse\"><texture name=\"reflectance\" type=\"mesh_attribute\">"
+                           "<string name=\"name\" value=\"vertex_color\"/></texture></bsdf>";
+  auto scene = [&](const std::string& name, const std::string& obj) {
+    return write(name, "<scene version=\"3.0.0\"><sensor type=\"perspective\"/><shape type=\"obj\"><string name=\"filename\" "
+                       "value=\"" + obj + "\"/>" + attr + "</shape></scene>");
+  };
+  // Faces listing the vertices out of order, with normals splitting vertex 3.
+  write("c.obj", "v 1 1 0 0 0 1\nv -1 -1 0 1 0 0\nv 1 -1 0 0 1 0\nv -1 1 0 0.5 0.5 0.5\nvn 0 0 1\nvn 0 0.6 0.8\n"
+                 "f 2//1 3//1 1//1\nf 2//2 1//2 4//2\n");
+  Scene s = load_mitsuba(scene("c.xml", "c.obj"), {});
+  ASSERT_EQ(s.colors.size(), s.positions.size());
+  EXPECT_GT(s.positions.size(), 4u);
+  for (size_t k = 0; k < s.positions.size(); ++k) {
+    const Color linear = corner_color(s.positions[k]);
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(s.colors[k][c], srgb_decode(linear[c]), 1e-6) << k;
+  }
+  write("bad.obj", "v 0 0 0 0 0 0\nv 1 0 0 2 0 0\nv 0 1 0 0 0 0\nf 1 2 3\n");
+  luz_test::expect_load_refused(scene("bad.xml", "bad.obj"), "bad.obj:2", "vertex colour '2' is not within [0, 1]");
+}
+
 TEST_F(VertexColors, BadUsesAreErrors) {
   write("c.ply", quad_ply("property float r\nproperty float g\nproperty float b\n", {"1 0 0", "0 1 0", "0 0 1", "1 1 1"}));
   write("plain.ply", quad_ply("", {"", "", "", ""}));

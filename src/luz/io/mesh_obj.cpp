@@ -99,8 +99,12 @@ class ObjChecker {
   // Each face's number of corners, in the file's order (tinyobjloader keeps
   // them modulo 256).
   const std::vector<uint32_t>& face_sizes() const { return face_sizes_; }
-  // How many `v` lines give a colour (x y z r g b: the common extension).
+  // How many `v` lines give a colour (x y z r g b: the common extension;
+  // tinyobjloader reads the 4th to 6th numbers of any longer line as one),
+  // and the first colour outside [0, 1] (line 0: none).
   size_t colored_vertices() const { return colored_; }
+  int bad_color_line() const { return bad_color_line_; }
+  const std::string& bad_color() const { return bad_color_; }
 
   void check() {
     // Pass 1 counts the vertex data, so positive face indices may refer ahead;
@@ -130,12 +134,11 @@ class ObjChecker {
           if (tok.size() - 1 < need)
             throw InputError(path_, line_no, "'" + std::string(key) + "' needs " + std::to_string(need) + " numbers");
           for (size_t k = 1; k < tok.size(); ++k) number(tok[k], line_no, key);
-          if (key == "v" && tok.size() == 7) {
+          if (key == "v" && tok.size() >= 7) {
             ++colored_;
             for (size_t k = 4; k < 7; ++k) {
               const double c = std::strtod(std::string(tok[k]).c_str(), nullptr);
-              if (!(c >= 0.0 && c <= 1.0))
-                throw InputError(path_, line_no, "vertex colour '" + std::string(tok[k]) + "' is not within [0, 1]");
+              if (!(c >= 0.0 && c <= 1.0) && bad_color_line_ == 0) bad_color_line_ = line_no, bad_color_ = tok[k];
             }
           }
         } else if (key == "f" && pass == 1) {
@@ -190,6 +193,8 @@ class ObjChecker {
   const std::string& text_;
   size_t total_v_ = 0, total_vt_ = 0, total_vn_ = 0;
   size_t colored_ = 0;
+  int bad_color_line_ = 0;
+  std::string bad_color_;
   std::vector<uint32_t> face_sizes_;
 };
 
@@ -388,6 +393,8 @@ struct ObjFile {
   MtlMaps maps;    // the MTL files' map statements as Luz reads them
   MtlGreys greys;  // and their one-number colours
   size_t colored_vertices = 0;  // `v` lines with a colour (then attrib.colors holds one per vertex)
+  int bad_color_line = 0;       // the first colour outside [0, 1], or 0
+  std::string bad_color;
   // The faces as triangles (triangulate()), each with its face's material
   // and smoothing group.
   struct Triangle {
@@ -478,6 +485,8 @@ std::shared_ptr<ObjFile> parse_obj(const std::string& path, bool with_materials)
   tinyobj::ObjReaderConfig config;
   config.triangulate = false;  // triangulate() below
   file->colored_vertices = checker.colored_vertices();
+  file->bad_color_line = checker.bad_color_line();
+  file->bad_color = checker.bad_color();
   config.vertex_color = file->colored_vertices > 0;  // white where a `v` line has none
   tinyobj::ObjReader& reader = file->reader;
   // From the text read already; materials from all_mtl (empty without materials), read at the first mtllib.
@@ -614,7 +623,11 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoot
   const bool any_normals = !attrib.normals.empty() || !group_normal.empty();
   size_t flat_faces = 0, bare_faces = 0;
   // Vertex colours: sRGB-encoded, as exporters write them (Blender's, MeshLab's, three.js's).
-  const bool colored = file.colored_vertices > 0;
+  // Colours outside [0, 1] (exporters of 0-255 values): none is used.
+  if (file.bad_color_line > 0)
+    mesh.colors_dropped = {path, file.bad_color_line,
+                           "vertex colour '" + file.bad_color + "' is not within [0, 1]: the file's vertex colours are not used"};
+  const bool colored = file.colored_vertices > 0 && file.bad_color_line == 0;
   if (colored && file.colored_vertices < attrib.vertices.size() / 3)
     mesh.warnings.push_back({path, 0, std::to_string(attrib.vertices.size() / 3 - file.colored_vertices) +
                                           " vertices lack a colour where others have one: white"});
@@ -690,6 +703,7 @@ ObjMesh obj_mesh(const ObjFile& file, ObjTexcoords texcoords, ObjSmoothing smoot
     mesh.warnings.push_back({path, 0, std::to_string(bare_faces) +
                                           " triangles lack texture coordinates (vt) where others have them: read as (0, 0)"});
   if (mesh.indices.empty()) throw InputError(path, 0, "mesh has no faces");
+  if (file.bad_color_line > 0) mesh.warnings.push_back(mesh.colors_dropped);
   return mesh;
 }
 

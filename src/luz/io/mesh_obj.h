@@ -44,6 +44,8 @@ struct ObjMesh {
   // decoded from the sRGB values exporters write; white where a `v` line
   // has none.
   std::vector<Color> colors;
+  // Why the file's colours were dropped (a colour outside [0, 1]; line 0: they were not).
+  ObjWarning colors_dropped;
   std::vector<uint32_t> indices;
   std::vector<int> face_material;  // per triangle, -1: none
   std::vector<ObjMaterial> materials;

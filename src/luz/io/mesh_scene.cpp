@@ -1,11 +1,12 @@
 // A mesh file as a whole scene: OBJ (its MTL materials as Luz materials,
 // Ke as area lights; faces without a material diffuse, of the vertex
-// colours where the file has them, else grey) or PLY (likewise), a camera
-// framing the bounds, and,
+// colours where the file has them, else grey) or PLY (likewise, of its
+// vertex or else face colours), a camera framing the bounds, and,
 // when nothing in the file emits, a uniform white sky so that the model shows.
 #include <cmath>
 #include <cstdio>
 
+#include "luz/core/memory.h"
 #include "luz/io/error.h"
 #include "luz/io/load.h"
 #include "luz/io/mesh_obj.h"
@@ -214,6 +215,23 @@ Scene load_obj_scene(const std::string& path) {
 Scene load_ply_scene(const std::string& path) {
   PlyMesh ply = read_ply(path);
   SceneBuilder builder(path);
+  // Face colours where the file has no vertex colours: each triangle gets
+  // vertices of its own, of its face's colour.
+  if (ply.colors.empty() && !ply.face_colors.empty()) {
+    require_memory(uint64_t(ply.indices.size()) * (2 * sizeof(Vec3) + sizeof(Color)), path,
+                   "the face-coloured triangles' own vertices");
+    std::vector<Vec3> pos, nrm;
+    for (size_t k = 0; k < ply.indices.size(); ++k) {
+      pos.push_back(ply.positions[ply.indices[k]]);
+      if (!ply.normals.empty()) nrm.push_back(ply.normals[ply.indices[k]]);
+      ply.colors.push_back(ply.face_colors[k / 3]);
+      ply.indices[k] = uint32_t(k);
+    }
+    ply.positions = std::move(pos);
+    ply.normals = std::move(nrm);
+  } else if (!ply.face_colors.empty()) {
+    builder.warn({path, 0}, "the face colours are not used (the vertex colours are)");
+  }
   for (size_t k = 0; k < ply.colors.size(); ++k) {
     const Color c = ply.colors[k];
     if (!(c.x >= 0.f && c.x <= 1.f && c.y >= 0.f && c.y <= 1.f && c.z >= 0.f && c.z <= 1.f)) {

@@ -270,6 +270,9 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
         nrm = std::move(mesh.normals);
         uv = std::move(mesh.texcoords);
         if (colored) col = std::move(mesh.colors);  // (Mitsuba 3's obj reads none)
+        if (colored && mesh.colors_dropped.line > 0)
+          throw InputError(mesh.colors_dropped.file, mesh.colors_dropped.line,
+                           mesh.colors_dropped.message.substr(0, mesh.colors_dropped.message.find(':')));
         if (!flip_uv)
           for (Vec2& t : uv) t.y = 1.f - t.y;
         idx = std::move(mesh.indices);
@@ -299,6 +302,9 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
     if ((colored || face_colored) && col.empty())
       error(n, std::string("the material reads ") + (colored ? "vertex" : "face") +
                    " colours (mesh_attribute), and '" + file + "' has none");
+    for (size_t t = 0; face_colored && t < col.size(); ++t)
+      if (!(col[t].x >= 0.f && col[t].x <= 1.f && col[t].y >= 0.f && col[t].y <= 1.f && col[t].z >= 0.f && col[t].z <= 1.f))
+        error(n, "'" + file + "': the colour of the face of triangle " + std::to_string(t) + " is not within [0, 1]");
     if (textured && uv.empty()) {
       // Mitsuba 3 takes such a mesh's tangents from the normal alone, which
       // a normal or bump map would need here too.
