@@ -233,8 +233,7 @@ Scene load_ply_scene(const std::string& path) {
     builder.warn({path, 0}, "the face colours are not used (the vertex colours are)");
   }
   for (size_t k = 0; k < ply.colors.size(); ++k) {
-    const Color c = ply.colors[k];
-    if (!(c.x >= 0.f && c.x <= 1.f && c.y >= 0.f && c.y <= 1.f && c.z >= 0.f && c.z <= 1.f)) {
+    if (!is_unit_color(ply.colors[k])) {
       builder.warn({path, 0}, "the colour of vertex " + std::to_string(k) + " is not within [0, 1]: the colours are not used");
       ply.colors.clear();
     }

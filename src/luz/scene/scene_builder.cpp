@@ -367,11 +367,8 @@ void SceneBuilder::check_mesh(const SourceLoc& at, TriangleMesh& mesh, uint32_t 
     error(at, "the mesh has texture coordinates for some vertices only");
   if (!mesh.colors.empty() && mesh.colors.size() != nv) error(at, "the mesh has colours for some vertices only");
   check_shape_material(at, material, emission, !mesh.uvs.empty(), !mesh.colors.empty(), "a mesh");
-  for (size_t k = 0; k < mesh.colors.size(); ++k) {
-    const Color c = mesh.colors[k];
-    if (!(c.x >= 0.f && c.x <= 1.f && c.y >= 0.f && c.y <= 1.f && c.z >= 0.f && c.z <= 1.f))
-      error(at, "the colour of vertex " + std::to_string(k) + " is not within [0, 1]");
-  }
+  for (size_t k = 0; k < mesh.colors.size(); ++k)
+    if (!is_unit_color(mesh.colors[k])) error(at, "the colour of vertex " + std::to_string(k) + " is not within [0, 1]");
   for (size_t k = 0; k < nv; ++k)
     if (!is_finite(mesh.positions[k]) || max_abs(mesh.positions[k]) > kMaxCoordinate)
       error(at, "vertex " + std::to_string(k) + " is not finite or lies beyond 1e18");

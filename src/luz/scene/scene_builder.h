@@ -26,6 +26,11 @@ struct SourceLoc {
   int line = 0;
 };
 
+// Whether every channel of c lies in [0, 1] (false for NaN): what a vertex colour must.
+inline bool is_unit_color(Color c) {
+  return c.x >= 0.f && c.x <= 1.f && c.y >= 0.f && c.y <= 1.f && c.z >= 0.f && c.z <= 1.f;
+}
+
 struct TriangleMesh {
   std::vector<Vec3> positions;
   std::vector<Vec3> normals;  // empty, or one per position

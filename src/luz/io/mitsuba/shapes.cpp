@@ -303,7 +303,7 @@ void MitsubaParser::add_shape(pugi::xml_node n, int64_t object) {
       error(n, std::string("the material reads ") + (colored ? "vertex" : "face") +
                    " colours (mesh_attribute), and '" + file + "' has none");
     for (size_t t = 0; face_colored && t < col.size(); ++t)
-      if (!(col[t].x >= 0.f && col[t].x <= 1.f && col[t].y >= 0.f && col[t].y <= 1.f && col[t].z >= 0.f && col[t].z <= 1.f))
+      if (!is_unit_color(col[t]))
         error(n, "'" + file + "': the colour of the face of triangle " + std::to_string(t) + " is not within [0, 1]");
     if (textured && uv.empty()) {
       // Mitsuba 3 takes such a mesh's tangents from the normal alone, which
