@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "bsdf_cases.h"
 #include "chi2.h"
 #include "luz/bsdf/bsdf.h"
 #include "sanitizer.h"
@@ -41,6 +42,11 @@ const Color kWhite = {1.f, 1.f, 1.f};
 Color au_eta() { Color e, k; find_conductor_preset("Au", e, k); return e; }
 Color au_k() { Color e, k; find_conductor_preset("Au", e, k); return k; }
 
+// Mitsuba 3's principled with spec_trans t (t > 0: the transmissive type).
+Bsdf principled(PrincipledParams p, float spec_trans = 0.f) {
+  p.spec_trans = spec_trans;
+  return Bsdf::make_principled(p, spec_trans > 0.f);
+}
 struct Case {
   std::string name;
   Bsdf b;
@@ -102,6 +108,34 @@ std::vector<Case> build_models() {
   coat.gltf_pbr.clearcoat = 1.f;
   coat.gltf_pbr.clearcoat_roughness = .2f;
   v.push_back({"gltf clearcoat 1 rough .2 over metallic .3 rough .6", coat, .08f});
+  // Mitsuba 3's principled: its defaults; its documentation's example (with
+  // and without spec_trans); a narrow clear glass; η < 1 (Schlick at the
+  // refracted cosine); a glossy coat over a flattened rough diffuse.
+  v.push_back({"principled defaults", principled({}), 1.f});
+  v.push_back({"principled doc example without spec_trans", luz_test::principled_doc_example(0.f), 1.f});
+  v.push_back({"principled doc example (spec_trans .4)", luz_test::principled_doc_example(.4f), 1.f});
+  PrincipledParams glass;
+  glass.base_color = {.9f, .95f, 1.f};
+  glass.roughness = .25f;  // α = .0625
+  glass.eta = 1.33f;
+  v.push_back({"principled glass spec_trans 1 roughness .25 η1.33", principled(glass, 1.f), 1.f});
+  PrincipledParams below;
+  below.base_color = {.2f, .6f, .9f};
+  below.eta = .8f;
+  below.metallic = .3f;
+  below.spec_tint = .7f;
+  below.roughness = .3f;
+  v.push_back({"principled η .8 spec_tint .7 metallic .3", principled(below), .2f});
+  PrincipledParams layered;
+  layered.base_color = {.7f, .3f, .2f};
+  layered.roughness = .9f;
+  layered.flatness = .6f;
+  layered.clearcoat = 1.f;
+  layered.clearcoat_gloss = .5f;  // GTR1 α ≈ .05
+  layered.sheen = 1.f;
+  layered.sheen_tint = .5f;
+  layered.anisotropic = .8f;
+  v.push_back({"principled coat 1 gloss .5 flatness .6 sheen 1 aniso .8", principled(layered), .1f});
   v.push_back({"twosided ggx .2 conductor / diffuse .7",
                Bsdf::make_two_sided(Bsdf::make_rough_conductor(G, .2f, .2f, au_eta(), au_k()),
                                     Bsdf::make_diffuse({.7f, .7f, .7f})), 1.f});
@@ -144,7 +178,9 @@ const int kChi2Tests = count_chi2_tests();
 const double kThreshold = chi2::sidak(chi2::kAlpha, kChi2Tests);
 
 // η of the medium on the side of w, for the rough dielectric under test.
-float side_eta(const Bsdf& b, Vec3 w) { return w.z > 0.f ? 1.f : b.rough_dielectric.eta; }
+float side_eta(const Bsdf& b, Vec3 w) {
+  return w.z > 0.f ? 1.f : (b.type == BsdfType::RoughDielectric ? b.rough_dielectric.eta : b.principled_transmission.eta);
+}
 
 // Every model with a delta lobe.
 std::vector<Case> delta_models() {
@@ -273,7 +309,7 @@ TEST(BsdfModels, Reciprocity) {
             fq = c.b.f(a, normalize(d + Vec3{0x1p-21f, -0x1p-21f, 0.f}));
       auto sens = [&](int k) { return 4.f * std::max(std::fabs(fp[k] - f1[k]), std::fabs(fq[k] - f1[k])); };
       float s1 = 1.f, s2 = 1.f;
-      if (c.b.type == BsdfType::RoughDielectric && !c.b.blend) {
+      if ((c.b.type == BsdfType::RoughDielectric || c.b.type == BsdfType::PrincipledTransmission) && !c.b.blend) {
         s1 = sqr(side_eta(c.b, a)), s2 = sqr(side_eta(c.b, d));
         Color fi = c.b.f(d, a, TransportMode::Importance);
         for (int k = 0; k < 3; ++k) ASSERT_NEAR(fi[k], f1[k], 1e-4f * f1[k] + sens(k) + 1e-6f) << c.name << " adjoint";
@@ -304,6 +340,15 @@ TEST(BsdfModels, EnergyConservation) {
     b.gltf_pbr.clearcoat = c;
     b.gltf_pbr.clearcoat_roughness = r;
     return b;
+  };
+  auto white_principled = [](float metallic, float roughness, float anisotropic = 0.f, float eta = 1.5f) {
+    PrincipledParams p;
+    p.base_color = kWhite;
+    p.metallic = metallic;
+    p.roughness = roughness;
+    p.anisotropic = anisotropic;
+    p.eta = eta;
+    return p;
   };
   Color mirror_eta, mirror_k;
   find_conductor_preset("none", mirror_eta, mirror_k);
@@ -360,6 +405,15 @@ TEST(BsdfModels, EnergyConservation) {
       {"gltf transmission 1 base 1 rough .3", Bsdf::make_gltf_pbr_transmission(kWhite, 0.f, .3f, 1.f), true},
       {"gltf transmission .5 base .5 rough .5", Bsdf::make_gltf_pbr_transmission({.5f, .5f, .5f}, 0.f, .5f, .5f),
        true},
+      // principled: its metal (Schlick of base 1, separable G) and its clear
+      // dielectric conserve energy; the diffuse, sheen and coat add to what
+      // the main lobe reflects (measured, not asserted).
+      {"principled metallic 1 base 1 rough .3", principled(white_principled(1.f, .3f)), true},
+      {"principled metallic 1 base 1 rough .8 aniso 1", principled(white_principled(1.f, .8f, 1.f)), true},
+      {"principled spec_trans 1 base 1 rough .3", principled(white_principled(0.f, .3f), 1.f), true},
+      {"principled spec_trans 1 base 1 rough .05 η1.1", principled(white_principled(0.f, .05f, 0.f, 1.1f), 1.f), true},
+      {"principled base 1 rough 1 (diffuse + retro)", principled(white_principled(0.f, 1.f)), false},
+      {"principled doc example, white, spec_trans .4", luz_test::principled_doc_example(.4f), false},
       {"twosided roughconductor F=1 / roughplastic ρ=1",
        Bsdf::make_two_sided(Bsdf::make_rough_conductor(G, .2f, .2f, mirror_eta, mirror_k),
                             Bsdf::make_rough_plastic(G, .2f, kWhite)), true},
@@ -622,6 +676,171 @@ TEST(BsdfModels, GltfPbrMatchesSpecificationFormulas) {
   const Color fn = lambert.f({0.f, 0.f, 1.f}, {0.f, 0.f, 1.f});
   EXPECT_NEAR(fn.x, .8f / kPi, 1e-7f);
   EXPECT_NEAR(fn.z, .2f / kPi, 1e-7f);
+}
+
+// Mitsuba 3's principled eval (src/bsdfs/principled.cpp and
+// principledhelpers.h) written out again in double and in Mitsuba's own
+// terms: si.wi the viewer, wo the other direction, the value including
+// |cos θ_wo|, the GGX D and Smith G1 in Mitsuba's forms (principled.h takes
+// them from microfacet.h's slopes and Λ), the exact dielectric Fresnel, its
+// principled_fresnel, calc_schlick and GTR1.
+namespace principled_ref {
+using D3 = std::array<double, 3>;
+struct V {
+  double x, y, z;
+};
+double dot(V a, V b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+V norm(V a) {
+  const double l = std::sqrt(dot(a, a));
+  return {a.x / l, a.y / l, a.z / l};
+}
+// Unit in double: near the critical angle F from the denser side (as
+// Mitsuba takes it) amplifies a float direction's length error 10⁴ times.
+V v3(Vec3 a) { return norm({a.x, a.y, a.z}); }
+double ggx_d(V m, double ax, double ay) {
+  if (m.z <= 0.0) return 0.0;
+  const double t = m.x * m.x / (ax * ax) + m.y * m.y / (ay * ay) + m.z * m.z;
+  return 1.0 / (3.14159265358979323846 * ax * ay * t * t);
+}
+double smith_g1(V v, V m, double ax, double ay) {
+  if (dot(v, m) * v.z <= 0.0) return 0.0;
+  const double t2 = (ax * ax * v.x * v.x + ay * ay * v.y * v.y) / (v.z * v.z);
+  return 2.0 / (1.0 + std::sqrt(1.0 + t2));
+}
+double fresnel(double cos_i, double eta) {
+  const double eta_it = cos_i >= 0.0 ? eta : 1.0 / eta, ci = std::fabs(cos_i);
+  const double ct2 = 1.0 - (1.0 - ci * ci) / (eta_it * eta_it);
+  if (ct2 <= 0.0) return 1.0;
+  const double ct = std::sqrt(ct2);
+  const double rs = (ci - eta_it * ct) / (ci + eta_it * ct), rp = (eta_it * ci - ct) / (eta_it * ci + ct);
+  return 0.5 * (rs * rs + rp * rp);
+}
+double schlick_weight(double c) { return std::pow(std::clamp(1.0 - c, 0.0, 1.0), 5.0); }
+double calc_schlick(double r0, double cos_i, double eta) {
+  const double eta_it = cos_i >= 0.0 ? eta : 1.0 / eta;
+  const double ct = std::sqrt(std::max(0.0, 1.0 - (1.0 - cos_i * cos_i) / (eta_it * eta_it)));
+  const double w = eta_it > 1.0 ? schlick_weight(std::fabs(cos_i)) : schlick_weight(ct);
+  return r0 + (1.0 - r0) * w;
+}
+double gtr1(V m, double alpha) {
+  const double a2 = alpha * alpha;
+  const double r = (a2 - 1.0) / (3.14159265358979323846 * std::log(a2) * (1.0 + (a2 - 1.0) * m.z * m.z));
+  return r * m.z > 1e-20 ? r : 0.0;
+}
+// q: the parameters; has_trans: spec_trans given (Mitsuba's m_has_spec_trans).
+D3 eval(const PrincipledParams& q, bool has_trans, V wi, V wo, bool radiance) {
+  D3 value = {0.0, 0.0, 0.0};
+  const double ci = wi.z, co = wo.z, eta = q.eta;
+  if (ci == 0.0) return value;
+  const double metallic = q.metallic, spec_trans = has_trans ? q.spec_trans : 0.0;
+  const double brdf = (1.0 - metallic) * (1.0 - spec_trans), bsdf = (1.0 - metallic) * spec_trans;
+  const bool reflect = ci * co > 0.0, refract = ci * co < 0.0, front = ci > 0.0;
+  const double eta_path = front ? eta : 1.0 / eta;
+  const double r2 = double(q.roughness) * q.roughness, aspect = std::sqrt(1.0 - 0.9 * q.anisotropic);
+  const double ax = std::max(0.001, r2 / aspect), ay = std::max(0.001, r2 * aspect);
+  const double k = reflect ? 1.0 : eta_path;
+  V wh = norm({wi.x + wo.x * k, wi.y + wo.y * k, wi.z + wo.z * k});
+  if (wh.z < 0.0) wh = {-wh.x, -wh.y, -wh.z};
+  const double F = fresnel(dot(wi, wh), eta), s = front ? 1.0 : -1.0;
+  const bool refl_ok = dot(wi, wh) * s > 0.0 && dot(wo, wh) * s > 0.0;
+  const bool refr_ok = dot(wi, wh) * s > 0.0 && dot(wo, wh) * -s > 0.0;
+  const double D = ggx_d(wh, ax, ay), G = smith_g1(wi, wh, ax, ay) * smith_g1(wo, wh, ax, ay);
+  const double lum = 0.2126 * q.base_color.x + 0.7152 * q.base_color.y + 0.0722 * q.base_color.z;
+  for (int c = 0; c < 3; ++c) {
+    const double base = q.base_color[c], tint = lum > 0.0 ? base / lum : 1.0;
+    double v = 0.0;
+    if (reflect && refl_ok && F > 0.0) {
+      const double cos_i = dot(wi, wh), eta_it = cos_i >= 0.0 ? eta : 1.0 / eta;
+      const double r0 = std::pow((eta_it - 1.0) / (eta_it + 1.0), 2.0);
+      const double fp = front ? (1.0 - metallic) * (1.0 - q.spec_tint) * F + metallic * calc_schlick(base, cos_i, eta) +
+                                    (1.0 - metallic) * q.spec_tint * calc_schlick(tint * r0, cos_i, eta)
+                              : bsdf * F;
+      v += fp * D * G / (4.0 * std::fabs(ci));
+    }
+    if (has_trans && bsdf > 0.0 && refract && refr_ok && F < 1.0) {
+      const double scale = radiance ? 1.0 / (eta_path * eta_path) : 1.0;
+      const double a = dot(wi, wh), b = dot(wo, wh);
+      v += std::sqrt(base) * bsdf *
+           std::fabs(scale * (1.0 - F) * D * G * eta_path * eta_path * a * b / (ci * std::pow(a + eta_path * b, 2.0)));
+    }
+    if (q.clearcoat > 0.0 && reflect && refl_ok && front) {
+      const double fcc = calc_schlick(0.04, dot(wi, wh), eta);
+      const double alpha = 0.1 + (0.001 - 0.1) * q.clearcoat_gloss;
+      v += q.clearcoat * 0.25 * fcc * gtr1(wh, alpha) * smith_g1(wi, wh, .25, .25) * smith_g1(wo, wh, .25, .25) *
+           std::fabs(co);
+    }
+    if (brdf > 0.0 && reflect && front) {
+      const double Fo = schlick_weight(std::fabs(co)), Fi = schlick_weight(std::fabs(ci));
+      const double f_diff = (1.0 - 0.5 * Fi) * (1.0 - 0.5 * Fo), cos_d = dot(wh, wo);
+      const double Rr = 2.0 * q.roughness * cos_d * cos_d, f_retro = Rr * (Fo + Fi + Fo * Fi * (Rr - 1.0));
+      const double Fss = (1.0 + (Rr / 2.0 - 1.0) * Fo) * (1.0 + (Rr / 2.0 - 1.0) * Fi);
+      const double f_ss = 1.25 * (Fss * (1.0 / (std::fabs(co) + std::fabs(ci)) - 0.5) + 0.5);
+      const double mix = (f_diff + f_retro) + (f_ss - (f_diff + f_retro)) * q.flatness;
+      v += brdf * std::fabs(co) * base / 3.14159265358979323846 * mix;
+    }
+    if (q.sheen > 0.0 && reflect && 1.0 - metallic > 0.0 && front) {
+      const double Fd = schlick_weight(std::fabs(dot(wh, wo))), c_sheen = 1.0 + (tint - 1.0) * q.sheen_tint;
+      v += q.sheen * (1.0 - metallic) * Fd * c_sheen * std::fabs(co);
+    }
+    value[size_t(c)] = v;
+  }
+  return value;
+}
+}  // namespace principled_ref
+
+// principled.h against that reference, for random parameters (η on both
+// sides of 1, some metallic 0 or 1, spec_trans 1) and random directions on
+// the whole sphere, in both transport modes: f(v, l) |l.z| must match in
+// every channel, to 1e-4 relative plus its float conditioning.
+TEST(BsdfModels, PrincipledMatchesMitsubaFormulas) {
+  uint64_t checked = 0, nonzero = 0;
+  for (uint64_t i = 0; i < 40000; ++i) {
+    auto u = [&](int k) { return chi2::rand01(71, i, k); };
+    PrincipledParams q;
+    q.base_color = {u(0), u(1), u(2)};
+    if (i % 7 == 0) q.base_color = {0.f, 0.f, 0.f};
+    q.roughness = 0.1f + 0.9f * u(3);
+    q.anisotropic = i % 2 ? u(4) : 0.f;
+    q.metallic = i % 4 == 0 ? 0.f : (i % 4 == 1 ? 1.f : u(5));
+    q.spec_tint = u(6), q.sheen = u(7), q.sheen_tint = u(8), q.flatness = i % 3 ? u(9) : 0.f;
+    q.clearcoat = i % 3 == 1 ? 0.f : u(10), q.clearcoat_gloss = u(11);
+    q.eta = i % 5 == 0 ? 0.6f + 0.35f * u(12) : 1.05f + 1.5f * u(12);
+    const bool trans = i % 2 == 0;
+    q.spec_trans = trans ? (i % 8 == 0 ? 1.f : u(13)) : 0.f;
+    const Bsdf b = Bsdf::make_principled(q, trans);
+    Vec3 v = square_to_uniform_sphere(chi2::rand2(71, i, 14)), l = square_to_uniform_sphere(chi2::rand2(71, i, 15));
+    if (!trans) v.z = std::fabs(v.z), l.z = std::fabs(l.z);
+    if (!(std::fabs(v.z) > 1e-3f && std::fabs(l.z) > 1e-3f)) continue;
+    for (TransportMode mode : {TransportMode::Radiance, TransportMode::Importance}) {
+      const principled_ref::D3 r =
+          principled_ref::eval(q, trans, principled_ref::v3(v), principled_ref::v3(l), mode == TransportMode::Radiance);
+      const Color f = b.f(v, l, mode) * std::fabs(l.z);
+      // Float conditioning, as in Reciprocity: 4 times the change of f when
+      // either direction moves by ~4 roundings (F near the critical angle).
+      const Color fp = b.f(normalize(v + Vec3{0x1p-21f, 0x1p-21f, 0.f}), l, mode) * std::fabs(l.z),
+                  fq = b.f(v, normalize(l + Vec3{0x1p-21f, -0x1p-21f, 0.f}), mode) * std::fabs(l.z);
+      for (int k = 0; k < 3; ++k) {
+        const double sens = 4.0 * std::max(std::fabs(fp[k] - f[k]), std::fabs(fq[k] - f[k]));
+        ASSERT_NEAR(f[k], r[size_t(k)], 1e-4 * r[size_t(k)] + sens + 1e-7) << "pair " << i << " channel " << k;
+      }
+      nonzero += !is_black(f);
+    }
+    ++checked;
+  }
+  EXPECT_GT(checked, 39000u);
+  EXPECT_GT(nonzero, 40000u);
+  // Metallic 1 is the Disney (and glTF) metal: Schlick's Fresnel of the base
+  // colour over isotropic GGX with separable masking, α = roughness².
+  for (uint64_t i = 0; i < 2000; ++i) {
+    PrincipledParams q;
+    q.base_color = {chi2::rand01(72, i, 0), chi2::rand01(72, i, 1), chi2::rand01(72, i, 2)};
+    q.metallic = 1.f;
+    q.roughness = 0.1f + 0.9f * chi2::rand01(72, i, 3);
+    const Bsdf p = Bsdf::make_principled(q, false), g = Bsdf::make_gltf_pbr(q.base_color, 1.f, q.roughness);
+    const Vec3 v = square_to_cosine_hemisphere(chi2::rand2(72, i, 4)), l = square_to_cosine_hemisphere(chi2::rand2(72, i, 5));
+    const Color fp = p.f(v, l), fg = g.f(v, l);
+    for (int k = 0; k < 3; ++k) ASSERT_NEAR(fp[k], fg[k], 1e-5f * fg[k] + 1e-9f) << i;
+  }
 }
 
 // Rough plastic's tables in the smooth limit (α = 1e-3): the coat's

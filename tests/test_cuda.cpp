@@ -49,6 +49,7 @@
 #include <string>
 #include <vector>
 
+#include "bsdf_cases.h"
 #include "chi2.h"
 #include "cli_helpers.h"
 #include "geometry_helpers.h"
@@ -409,7 +410,7 @@ void expect_same_samples(const Film& a, const Film& b, double max_diverged, cons
 // Luz's BVH, transmission and delta lobes included.
 const char* const kMaterialModels[] = {"diffuse",   "phong",          "blinnphong", "ward",
                                        "conductor", "roughconductor", "dielectric", "roughdielectric",
-                                       "thindielectric", "plastic", "roughplastic"};
+                                       "thindielectric", "plastic", "roughplastic", "principled"};
 constexpr int kNumMaterialModels = int(sizeof kMaterialModels / sizeof kMaterialModels[0]);
 
 Scene material_scene(const char* model, uint32_t spp, uint64_t seed) {
@@ -423,7 +424,8 @@ Scene material_scene(const char* model, uint32_t spp, uint64_t seed) {
 
 // BSDFs whose sampling the GPU must reproduce: one per sampling routine
 // (cosine lobe, Phong and Blinn-Phong lobes, Ward, VNDF Beckmann and GGX,
-// anisotropic, refraction from both sides, the plastic coat, a blend).
+// anisotropic, refraction from both sides, the plastic coat, a blend, the
+// principled lobes with GTR1).
 struct BatchCase {
   const char* name;
   Bsdf b;
@@ -450,6 +452,8 @@ std::vector<BatchCase> batch_cases() {
       {"ward-duer (.2,.1)", Bsdf::make_ward(WardVariant::WardDuer, {.3f, .3f, .3f}, {.6f, .6f, .6f}, .2f, .1f), false},
       {"gltf metallic .3 rough .4", Bsdf::make_gltf_pbr({.8f, .5f, .2f}, .3f, .4f), false},
       {"gltf transmission .7 rough .3", Bsdf::make_gltf_pbr_transmission({.9f, .9f, .6f}, 0.f, .3f, .7f), true},
+      {"principled (documentation example)", luz_test::principled_doc_example(0.f), false},
+      {"principled (documentation example, spec_trans .4)", luz_test::principled_doc_example(.4f), true},
       // A pair answers from below with its back BSDF: sampled from both sides.
       {"twosided beckmann .3 conductor / diffuse", Bsdf::make_two_sided(Bsdf::make_rough_conductor(B, .3f, .3f, eta, k),
                                                                         Bsdf::make_diffuse({.6f, .6f, .6f})),

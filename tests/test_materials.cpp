@@ -25,7 +25,8 @@
 //        vector with D, Λ and G2 written out independently of luz's code;
 //        checked per pixel (z-test, Šidák) for path, bsdf and light.
 //  * Estimator agreement with every lobe mix (rough glass, smooth glass, a
-//    mirror, smooth and rough plastic, a diffuse/glass blend) in front of a sphere
+//    mirror, smooth and rough plastic, a diffuse/glass blend, Mitsuba 3's
+//    principled with every lobe and as rough glass) in front of a sphere
 //    light, over a diffuse floor. The bsdf estimator never uses shadow rays;
 //    path and light do (on both sides of rough glass), and they weigh
 //    emission after delta samples as 1. The three must agree per block.
@@ -42,6 +43,7 @@
 #include "luz/io/image.h"
 #include "luz/io/load.h"
 #include "luz/scene/scene.h"
+#include "bsdf_cases.h"
 #include "furnace.h"
 #include "stat_helpers.h"
 #include "sanitizer.h"
@@ -363,6 +365,15 @@ TEST(Materials, RoughConductorFurnaceMatchesSingleScatteringAlbedo) {
 // (e.g. floor -> glass -> light) are so rare for the bsdf estimator that in
 // some blocks it has no sample of them at all, its sample variance is 0 and
 // the z-test (which trusts that variance) rejects a correct estimator.
+// Mitsuba 3's principled as rough glass.
+Bsdf principled_glass() {
+  PrincipledParams p;
+  p.base_color = {1.f, 1.f, 1.f};
+  p.roughness = .5f;
+  p.spec_trans = 1.f;
+  return Bsdf::make_principled(p, true);
+}
+
 TEST(Materials, EstimatorsAgreeWithEveryLobeMix) {
   const int res = 48, block = 8;
   struct Case {
@@ -378,6 +389,8 @@ TEST(Materials, EstimatorsAgreeWithEveryLobeMix) {
       {"rough plastic", Bsdf::make_rough_plastic(MicrofacetType::GGX, 0.2f, {0.5f, 0.3f, 0.2f}), 512},
       {"blend diffuse+glass",
        Bsdf::make_blend(Bsdf::make_diffuse({0.7f, 0.7f, 0.7f}), Bsdf::make_smooth_dielectric(1.5f, 1.f), 0.5f), 512},
+      {"principled (Mitsuba's example, spec_trans .4)", luz_test::principled_doc_example(.4f), 512},
+      {"principled glass (spec_trans 1)", principled_glass(), 1024},
   };
   for (const Case& cs : cases) {
     auto make = [&](IntegratorType t, uint64_t seed) {

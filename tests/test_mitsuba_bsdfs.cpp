@@ -1,6 +1,6 @@
 // The Mitsuba loader's BSDF plugins beyond diffuse/phong: conductor,
 // roughconductor, dielectric, roughdielectric, thindielectric, plastic,
-// roughplastic, blendbsdf, ward, blinnphong (Luz's own), twosided around them
+// roughplastic, blendbsdf, ward, blinnphong (Luz's own), principled, twosided around them
 // (with one nested bsdf or a front and a back one); their Mitsuba 3 parameter
 // names and defaults, the conductor presets, and the one-line errors (file
 // and line) for what is out of range or not supported. A twosided pair is
@@ -462,4 +462,102 @@ TEST_F(MitsubaBsdfs, TwosidedPairRendersEachSide) {
                   expect[c]);
     }
   }
+}
+
+// Mitsuba 3's principled: its defaults, every parameter by its name,
+// specular or eta, spec_trans choosing the transmissive model (a number
+// other than 0, or a texture), textures bound to their parameters, and the
+// errors.
+TEST_F(MitsubaBsdfs, Principled) {
+  Bsdf d = material("<bsdf type=\"principled\"/>");
+  EXPECT_EQ(d.type, BsdfType::Principled);
+  EXPECT_FALSE(d.two_sided);
+  expect_color(d.principled.base_color, .5f, .5f, .5f);
+  EXPECT_FLOAT_EQ(d.principled.roughness, .5f);
+  EXPECT_NEAR(d.principled.eta, 1.5f, 1e-6f);  // specular 0.5
+  EXPECT_EQ(d.principled.metallic + d.principled.sheen + d.principled.clearcoat + d.principled.spec_tint, 0.f);
+  EXPECT_FLOAT_EQ(d.principled.spec_rate + d.principled.clearcoat_rate + d.principled.diffuse_rate, 3.f);
+
+  // The example of Mitsuba 3's documentation.
+  Bsdf e = material(
+      "<bsdf type=\"principled\"><rgb name=\"base_color\" value=\"1.0,0.5,0.25\"/><float name=\"metallic\" value=\"0.7\"/>"
+      "<float name=\"specular\" value=\"0.6\"/><float name=\"roughness\" value=\"0.2\"/>"
+      "<float name=\"spec_tint\" value=\"0.4\"/><float name=\"anisotropic\" value=\"0.5\"/>"
+      "<float name=\"sheen\" value=\"0.3\"/><float name=\"sheen_tint\" value=\"0.2\"/>"
+      "<float name=\"clearcoat\" value=\"0.6\"/><float name=\"clearcoat_gloss\" value=\"0.3\"/>"
+      "<float name=\"spec_trans\" value=\"0.4\"/><float name=\"flatness\" value=\"0.1\"/>"
+      "<float name=\"main_specular_sampling_rate\" value=\"2\"/><float name=\"clearcoat_sampling_rate\" value=\"0.5\"/>"
+      "<float name=\"diffuse_reflectance_sampling_rate\" value=\"3\"/></bsdf>");
+  ASSERT_EQ(e.type, BsdfType::PrincipledTransmission);
+  EXPECT_TRUE(e.has_transmission());
+  const luz::PrincipledParams& q = e.principled_transmission;
+  expect_color(q.base_color, 1.f, .5f, .25f);
+  EXPECT_FLOAT_EQ(q.metallic, .7f);
+  EXPECT_FLOAT_EQ(q.eta, 2.f / (1.f - std::sqrt(0.08f * .6f)) - 1.f);
+  EXPECT_FLOAT_EQ(q.roughness, .2f);
+  EXPECT_FLOAT_EQ(q.spec_tint, .4f);
+  EXPECT_FLOAT_EQ(q.anisotropic, .5f);
+  EXPECT_FLOAT_EQ(q.sheen, .3f);
+  EXPECT_FLOAT_EQ(q.sheen_tint, .2f);
+  EXPECT_FLOAT_EQ(q.clearcoat, .6f);
+  EXPECT_FLOAT_EQ(q.clearcoat_gloss, .3f);
+  EXPECT_FLOAT_EQ(q.spec_trans, .4f);
+  EXPECT_FLOAT_EQ(q.flatness, .1f);
+  EXPECT_FLOAT_EQ(q.spec_rate, 2.f);
+  EXPECT_FLOAT_EQ(q.clearcoat_rate, .5f);
+  EXPECT_FLOAT_EQ(q.diffuse_rate, 3.f);
+
+  // spec_trans 0 is no transmission (Mitsuba's get_flag); eta as given, and
+  // 1 raised to 1.001 (specular 0 to 1e-3) where the material transmits.
+  EXPECT_EQ(material("<bsdf type=\"principled\"><float name=\"spec_trans\" value=\"0\"/></bsdf>").type, BsdfType::Principled);
+  EXPECT_FLOAT_EQ(material("<bsdf type=\"principled\"><float name=\"eta\" value=\"1.33\"/></bsdf>").principled.eta, 1.33f);
+  EXPECT_FLOAT_EQ(material("<bsdf type=\"principled\"><float name=\"eta\" value=\"1\"/></bsdf>").principled.eta, 1.f);
+  EXPECT_FLOAT_EQ(material("<bsdf type=\"principled\"><float name=\"eta\" value=\"1\"/>"
+                           "<float name=\"spec_trans\" value=\"1\"/></bsdf>").principled_transmission.eta, 1.001f);
+  EXPECT_FLOAT_EQ(material("<bsdf type=\"principled\"><float name=\"specular\" value=\"0\"/>"
+                           "<float name=\"spec_trans\" value=\"1\"/></bsdf>").principled_transmission.eta,
+                  2.f / (1.f - std::sqrt(0.08f * 1e-3f)) - 1.f);
+  EXPECT_TRUE(material("<bsdf type=\"twosided\"><bsdf type=\"principled\"/></bsdf>").two_sided);
+
+  // Textures: each bound to its parameter; a textured spec_trans transmits.
+  luz::Scene s = load(
+      "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n<shape type=\"sphere\">\n<bsdf type=\"principled\">"
+      "<texture type=\"checkerboard\" name=\"base_color\"/>"
+      "<texture type=\"checkerboard\" name=\"roughness\"><rgb name=\"color0\" value=\"0.8\"/></texture>"
+      "<texture type=\"checkerboard\" name=\"spec_trans\"/><texture type=\"checkerboard\" name=\"clearcoat_gloss\"/>"
+      "</bsdf>\n</shape>\n</scene>\n");
+  const luz::Material& m = s.materials[s.spheres[0].material];
+  ASSERT_EQ(m.bsdf.type, BsdfType::PrincipledTransmission);
+  ASSERT_EQ(m.num_bindings, 4u);
+  const luz::BsdfParam expect[] = {luz::BsdfParam::BaseColor, luz::BsdfParam::Roughness, luz::BsdfParam::Transmission,
+                                   luz::BsdfParam::ClearcoatGloss};
+  for (uint32_t k = 0; k < 4; ++k) EXPECT_EQ(s.texture_bindings[m.first_binding + k].param, expect[k]) << k;
+  EXPECT_FLOAT_EQ(m.bsdf.principled_transmission.roughness, 0.5f);  // the mean of 0.8 and color1 0.2
+
+  // A sampling rate of 0 still samples its lobe, with a warning.
+  luz::Scene w = load(scene("<bsdf type=\"principled\"><float name=\"clearcoat_sampling_rate\" value=\"0\"/></bsdf>\n"));
+  ASSERT_EQ(w.warnings.size(), 1u);
+  EXPECT_NE(w.warnings[0].find("scene.xml:3: warning: principled 'clearcoat_sampling_rate' 0"), std::string::npos)
+      << w.warnings[0];
+
+  expect_error("<bsdf type=\"principled\"><float name=\"roughness\" value=\"1.5\"/></bsdf>\n", 3,
+               "principled 'roughness' must lie in [0, 1]");
+  expect_error("<bsdf type=\"principled\"><float name=\"sheen\" value=\"-0.1\"/></bsdf>\n", 3,
+               "principled 'sheen' must lie in [0, 1]");
+  expect_error("<bsdf type=\"principled\"><rgb name=\"base_color\" value=\"1.2, 0.5, 0.5\"/></bsdf>\n", 3,
+               "'base_color' must lie in [0, 1]");
+  expect_error("<bsdf type=\"principled\"><float name=\"eta\" value=\"1.5\"/><float name=\"specular\" value=\"0.5\"/>"
+               "</bsdf>\n",
+               3, "either 'eta' or 'specular', not both");
+  expect_error("<bsdf type=\"principled\"><float name=\"eta\" value=\"0\"/></bsdf>\n", 3, "'eta' must lie in [0.1, 10]");
+  expect_error("<bsdf type=\"principled\"><float name=\"specular\" value=\"2\"/></bsdf>\n", 3,
+               "'specular' must lie in [0, 1]");
+  expect_error("<bsdf type=\"principled\"><float name=\"main_specular_sampling_rate\" value=\"-1\"/></bsdf>\n", 3,
+               "'main_specular_sampling_rate' must be a finite number ≥ 0");
+  expect_error("<bsdf type=\"principled\"><texture type=\"checkerboard\" name=\"eta\"/></bsdf>\n", 3, "eta");
+  expect_error("<bsdf type=\"principled\"><float name=\"subsurface\" value=\"0.5\"/></bsdf>\n", 3,
+               "unknown parameter 'subsurface'");
+  expect_error("<bsdf type=\"twosided\">\n<bsdf type=\"principled\"><float name=\"spec_trans\" value=\"0.5\"/></bsdf>"
+               "</bsdf>\n",
+               4, "twosided cannot wrap a material that transmits light");
 }

@@ -28,6 +28,7 @@
 #include "luz/bsdf/gltf_pbr.h"
 #include "luz/bsdf/phong.h"
 #include "luz/bsdf/plastic.h"
+#include "luz/bsdf/principled.h"
 #include "luz/bsdf/roughplastic.h"
 #include "luz/bsdf/ward.h"
 #include "luz/math/vec.h"
@@ -54,9 +55,11 @@ enum class BsdfType : uint32_t {
   Ward,
   RoughPlastic,
   GltfPbr,
-  GltfPbrTransmission,  // the last: kBsdfTypeCount follows it
+  GltfPbrTransmission,
+  Principled,
+  PrincipledTransmission,  // the last: kBsdfTypeCount follows it
 };
-constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::GltfPbrTransmission) + 1;
+constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::PrincipledTransmission) + 1;
 
 // One BSDF model: a tag and the model's parameters in a union (every model
 // is a small trivially copyable struct).
@@ -80,6 +83,8 @@ struct BsdfComponent {
     RoughPlasticBsdf rough_plastic;
     GltfPbrBsdf gltf_pbr;
     GltfPbrTransmissionBsdf gltf_pbr_transmission;
+    PrincipledBsdf principled;
+    PrincipledTransmissionBsdf principled_transmission;
   };
 
   // The models' members have default initialisers, so the union needs a
@@ -105,6 +110,8 @@ LUZ_FORCE_INLINE decltype(auto) visit(C& c, F&& f) {
     case BsdfType::Ward: return f(c.ward);
     case BsdfType::GltfPbr: return f(c.gltf_pbr);
     case BsdfType::GltfPbrTransmission: return f(c.gltf_pbr_transmission);
+    case BsdfType::Principled: return f(c.principled);
+    case BsdfType::PrincipledTransmission: return f(c.principled_transmission);
     default: return f(c.rough_plastic);
   }
 }
@@ -421,6 +428,21 @@ struct Bsdf : BsdfComponent {
     b.type = BsdfType::GltfPbrTransmission;
     b.gltf_pbr_transmission.surface = make_gltf_pbr(base_color, metallic, roughness, ior).gltf_pbr;
     b.gltf_pbr_transmission.transmission = transmission;
+    return b;
+  }
+  // Mitsuba 3 `principled` (principled.h): the model with its parameters
+  // set; spec_trans > 0 (or textured) makes it the transmissive type.
+  LUZ_INLINE static Bsdf make_principled(const PrincipledParams& p, bool transmits, bool two_sided = false) {
+    Bsdf b;
+    b.two_sided = two_sided;
+    if (transmits) {
+      b.type = BsdfType::PrincipledTransmission;
+      static_cast<PrincipledParams&>(b.principled_transmission) = p;
+    } else {
+      b.type = BsdfType::Principled;
+      static_cast<PrincipledParams&>(b.principled) = p;
+      b.principled.spec_trans = 0.f;
+    }
     return b;
   }
   // Mitsuba `blendbsdf`: (1 - weight) a + weight b. a and b must not be blends

@@ -29,8 +29,14 @@ enum class BsdfParam : uint8_t {
   Transmission,   // KHR_materials_transmission
   Specular,       // KHR_materials_specular: the strength
   SpecularColor,  // and the F0 colour
-  Clearcoat,      // KHR_materials_clearcoat: the coat's weight
+  Clearcoat,      // KHR_materials_clearcoat: the coat's weight (also principled's)
   ClearcoatRoughness,
+  Anisotropic,  // Mitsuba 3's principled (principled.h); its spec_trans is Transmission
+  SpecularTint,
+  Sheen,
+  SheenTint,
+  Flatness,
+  ClearcoatGloss,
 };
 
 // What is transported along the path: radiance (camera paths, the path

@@ -41,6 +41,9 @@ LUZ_INLINE float max_component(Vec3 a) { return max(a.x, max(a.y, a.z)); }
 // The largest magnitude of a coordinate.
 LUZ_INLINE float max_abs(Vec3 a) { return max(fabsf(a.x), max(fabsf(a.y), fabsf(a.z))); }
 LUZ_INLINE float average(Vec3 a) { return (a.x + a.y + a.z) * (1.f / 3.f); }
+// Rec. 709 luminance: what a float parameter reads from a colour texture
+// (Mitsuba's eval_1 of an RGB bitmap).
+LUZ_INLINE float luminance(Color c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
 LUZ_INLINE bool is_black(Vec3 a) { return a.x == 0.f && a.y == 0.f && a.z == 0.f; }
 LUZ_INLINE bool is_finite(Vec3 a) { return is_finite(a.x) && is_finite(a.y) && is_finite(a.z); }
 LUZ_INLINE Vec3 vmin(Vec3 a, Vec3 b) { return {min(a.x, b.x), min(a.y, b.y), min(a.z, b.z)}; }

@@ -37,6 +37,8 @@ const char* bsdf_name(BsdfType t) {
     case BsdfType::RoughPlastic: return "roughplastic";
     case BsdfType::GltfPbr: return "gltf metallic-roughness";
     case BsdfType::GltfPbrTransmission: return "gltf metallic-roughness transmission";
+    case BsdfType::Principled: return "principled";
+    case BsdfType::PrincipledTransmission: return "principled (spec_trans)";
   }
   return "?";
 }

@@ -99,10 +99,6 @@ LUZ_INLINE uint32_t pack_rgba8(uint32_t r, uint32_t g, uint32_t b, uint32_t a = 
 // for the loader (<srgb> colours) and the 256-entry table texels go through.
 LUZ_INLINE double srgb_to_linear(double v) { return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4); }
 
-// Rec. 709 luminance: what a float parameter reads from a colour texture
-// (Mitsuba's eval_1 of an RGB bitmap).
-LUZ_INLINE float luminance(Color c) { return 0.2126f * c.x + 0.7152f * c.y + 0.0722f * c.z; }
-
 // One 8-bit texel as linear RGB.
 LUZ_INLINE Color texel_color(uint32_t t, bool srgb, const float* srgb_table) {
   uint32_t r = t & 255u, g = (t >> 8) & 255u, b = (t >> 16) & 255u;

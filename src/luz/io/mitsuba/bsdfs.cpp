@@ -314,14 +314,68 @@ ParsedBsdf MitsubaParser::parse_bsdf_element(pugi::xml_node n) {
     Color ks = reflectance("specular_reflectance", {0.2f, 0.2f, 0.2f}, BsdfParam::SpecularReflectance);
     check_sum(kd, ks);
     b = Bsdf::make_ward(variant, kd, ks, au, av, false);
+  } else if (type == "principled") {
+    b = principled(n, p, tb);
   } else {
     error(n, "unknown bsdf '" + type +
                  "' (supported: diffuse, phong, blinnphong, conductor, roughconductor, dielectric, "
-                 "roughdielectric, thindielectric, plastic, roughplastic, ward, blendbsdf, twosided, mask, "
-                 "normalmap, bumpmap)");
+                 "roughdielectric, thindielectric, plastic, roughplastic, ward, principled, blendbsdf, twosided, "
+                 "mask, normalmap, bumpmap)");
   }
   p.check_all_used();
   return out;
+}
+
+// Mitsuba 3's principled (principled.h): every parameter but eta, specular
+// and the sampling rates a number or a texture, in [0, 1] as Mitsuba 3's
+// documentation asks. spec_trans given as a texture or a non-zero number
+// makes the material transmissive (Mitsuba's m_has_spec_trans), and then an
+// eta of 1 becomes 1.001 and a specular of 0 becomes 1e-3, as there.
+Bsdf MitsubaParser::principled(pugi::xml_node n, Props& p, std::vector<TextureBinding>& tb) {
+  auto unit = [&](const char* name, float def, BsdfParam param, bool* given = nullptr) {
+    int32_t t = -1;
+    const float v = unit_param(n, p, "principled", name, def, t);
+    if (t >= 0) tb.push_back({t, BsdfPart::Front, param});
+    if (given) *given = t >= 0 || v != 0.f;
+    return v;
+  };
+  PrincipledParams q;
+  q.base_color = color_param(n, p, "base_color", {.5f, .5f, .5f}, BsdfParam::BaseColor, true, tb);
+  q.roughness = unit("roughness", .5f, BsdfParam::Roughness);
+  q.anisotropic = unit("anisotropic", 0.f, BsdfParam::Anisotropic);
+  q.metallic = unit("metallic", 0.f, BsdfParam::Metallic);
+  bool transmits = false;
+  q.spec_trans = unit("spec_trans", 0.f, BsdfParam::Transmission, &transmits);
+  q.spec_tint = unit("spec_tint", 0.f, BsdfParam::SpecularTint);
+  q.sheen = unit("sheen", 0.f, BsdfParam::Sheen);
+  q.sheen_tint = unit("sheen_tint", 0.f, BsdfParam::SheenTint);
+  q.flatness = unit("flatness", 0.f, BsdfParam::Flatness);
+  q.clearcoat = unit("clearcoat", 0.f, BsdfParam::Clearcoat);
+  q.clearcoat_gloss = unit("clearcoat_gloss", 0.f, BsdfParam::ClearcoatGloss);
+  if (p.has("eta") && p.has("specular")) error(n, "principled takes either 'eta' or 'specular', not both");
+  if (p.has("eta")) {
+    q.eta = float(p.get_float("eta", 1.5));
+    if (!(q.eta >= 0.1f && q.eta <= 10.f)) error(n, "principled 'eta' must lie in [0.1, 10] (a relative index of refraction)");
+    if (transmits && q.eta == 1.f) q.eta = 1.001f;
+  } else {
+    float specular = float(p.get_float("specular", 0.5));
+    if (!(specular >= 0.f && specular <= 1.f)) error(n, "principled 'specular' must lie in [0, 1]");
+    if (transmits && specular == 0.f) specular = 1e-3f;
+    q.eta = PrincipledParams::specular_to_eta(specular);
+  }
+  // Sampling weights: they change the noise, not the image. A weight of 0
+  // would leave its lobe to light sampling alone (Mitsuba 3 then loses what
+  // only that lobe finds); Luz keeps sampling it a little.
+  auto rate = [&](const char* name, float& r) {
+    const double v = p.get_float(name, 1.0);
+    if (!(v >= 0.0 && v < 1e6)) error(n, std::string("principled '") + name + "' must be a finite number ≥ 0");
+    r = v > 0.0 ? float(v) : 1e-2f;
+    if (v == 0.0) builder_.warn(loc(n), std::string("principled '") + name + "' 0: the lobe is still sampled, at weight 0.01");
+  };
+  rate("main_specular_sampling_rate", q.spec_rate);
+  rate("clearcoat_sampling_rate", q.clearcoat_rate);
+  rate("diffuse_reflectance_sampling_rate", q.diffuse_rate);
+  return Bsdf::make_principled(q, transmits);
 }
 
 // Mitsuba 0.5's coating: a smooth dielectric layer (int_ior, ext_ior,
