@@ -108,6 +108,9 @@ std::vector<Case> build_models() {
   coat.gltf_pbr.clearcoat = 1.f;
   coat.gltf_pbr.clearcoat_roughness = .2f;
   v.push_back({"gltf clearcoat 1 rough .2 over metallic .3 rough .6", coat, .08f});
+  v.push_back({"diffusetransmission R (.6,.3,.1) T (.2,.5,.3)",
+               Bsdf::make_diffuse_transmission({.6f, .3f, .1f}, {.2f, .5f, .3f}), 1.f});
+  v.push_back({"diffusetransmission R 0 T .8", Bsdf::make_diffuse_transmission({}, {.8f, .8f, .8f}), 1.f});
   // Mitsuba 3's principled: its defaults; its documentation's example (with
   // and without spec_trans); a narrow clear glass; η < 1 (Schlick at the
   // refracted cosine); a glossy coat over a flattened rough diffuse.
@@ -313,11 +316,12 @@ TEST(BsdfModels, Reciprocity) {
         s1 = sqr(side_eta(c.b, a)), s2 = sqr(side_eta(c.b, d));
         Color fi = c.b.f(d, a, TransportMode::Importance);
         for (int k = 0; k < 3; ++k) ASSERT_NEAR(fi[k], f1[k], 1e-4f * f1[k] + sens(k) + 1e-6f) << c.name << " adjoint";
-      } else if (c.b.has_transmission() && c.b.type != BsdfType::GltfPbrTransmission) {
+      } else if (c.b.has_transmission() && c.b.type != BsdfType::GltfPbrTransmission &&
+                 c.b.type != BsdfType::DiffuseTransmission) {
         continue;  // blends with a dielectric: covered by their parts
       } else if (c.b.type == BsdfType::GltfPbr && c.b.gltf_pbr.clearcoat > 0.f) {
         break;  // the glTF clear coat's Fresnel at n·wo (gltf_pbr.h): not reciprocal by its definition
-      }  // the glTF thin sheet (η = 1 on both sides): plainly symmetric, as reflection
+      }  // the glTF thin sheet and the diffuse transmitter (η = 1 on both sides): plainly symmetric
       for (int k = 0; k < 3; ++k)
         ASSERT_NEAR(f1[k] / s1, f2[k] / s2, (1e-4f * std::fabs(f1[k]) + sens(k)) / s1 + 1e-6f) << c.name << " pair " << i;
       nonzero += !is_black(f1);
@@ -405,6 +409,8 @@ TEST(BsdfModels, EnergyConservation) {
       {"gltf transmission 1 base 1 rough .3", Bsdf::make_gltf_pbr_transmission(kWhite, 0.f, .3f, 1.f), true},
       {"gltf transmission .5 base .5 rough .5", Bsdf::make_gltf_pbr_transmission({.5f, .5f, .5f}, 0.f, .5f, .5f),
        true},
+      {"diffusetransmission R .5 T .5", Bsdf::make_diffuse_transmission({.5f, .5f, .5f}, {.5f, .5f, .5f}), true},
+      {"diffusetransmission R .2 T .8", Bsdf::make_diffuse_transmission({.2f, .2f, .2f}, {.8f, .8f, .8f}), true},
       // principled: its metal (Schlick of base 1, separable G) and its clear
       // dielectric conserve energy; the diffuse, sheen and coat add to what
       // the main lobe reflects (measured, not asserted).

@@ -425,7 +425,7 @@ Scene material_scene(const char* model, uint32_t spp, uint64_t seed) {
 // BSDFs whose sampling the GPU must reproduce: one per sampling routine
 // (cosine lobe, Phong and Blinn-Phong lobes, Ward, VNDF Beckmann and GGX,
 // anisotropic, refraction from both sides, the plastic coat, a blend, the
-// principled lobes with GTR1).
+// principled lobes with GTR1, diffuse transmission).
 struct BatchCase {
   const char* name;
   Bsdf b;
@@ -452,6 +452,7 @@ std::vector<BatchCase> batch_cases() {
       {"ward-duer (.2,.1)", Bsdf::make_ward(WardVariant::WardDuer, {.3f, .3f, .3f}, {.6f, .6f, .6f}, .2f, .1f), false},
       {"gltf metallic .3 rough .4", Bsdf::make_gltf_pbr({.8f, .5f, .2f}, .3f, .4f), false},
       {"gltf transmission .7 rough .3", Bsdf::make_gltf_pbr_transmission({.9f, .9f, .6f}, 0.f, .3f, .7f), true},
+      {"diffusetransmission R .6 T .3", Bsdf::make_diffuse_transmission({.6f, .5f, .4f}, {.3f, .3f, .2f}), true},
       {"principled (documentation example)", luz_test::principled_doc_example(0.f), false},
       {"principled (documentation example, spec_trans .4)", luz_test::principled_doc_example(.4f), true},
       // A pair answers from below with its back BSDF: sampled from both sides.

@@ -26,7 +26,8 @@
 //        checked per pixel (z-test, Šidák) for path, bsdf and light.
 //  * Estimator agreement with every lobe mix (rough glass, smooth glass, a
 //    mirror, smooth and rough plastic, a diffuse/glass blend, Mitsuba 3's
-//    principled with every lobe and as rough glass) in front of a sphere
+//    principled with every lobe and as rough glass, pbrt-v4's diffuse
+//    transmitter) in front of a sphere
 //    light, over a diffuse floor. The bsdf estimator never uses shadow rays;
 //    path and light do (on both sides of rough glass), and they weigh
 //    emission after delta samples as 1. The three must agree per block.
@@ -391,6 +392,7 @@ TEST(Materials, EstimatorsAgreeWithEveryLobeMix) {
        Bsdf::make_blend(Bsdf::make_diffuse({0.7f, 0.7f, 0.7f}), Bsdf::make_smooth_dielectric(1.5f, 1.f), 0.5f), 512},
       {"principled (Mitsuba's example, spec_trans .4)", luz_test::principled_doc_example(.4f), 512},
       {"principled glass (spec_trans 1)", principled_glass(), 1024},
+      {"diffuse transmission", Bsdf::make_diffuse_transmission({.3f, .4f, .5f}, {.5f, .4f, .3f}), 512},
   };
   for (const Case& cs : cases) {
     auto make = [&](IntegratorType t, uint64_t seed) {

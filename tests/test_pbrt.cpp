@@ -483,6 +483,61 @@ TEST_F(PbrtScene, MaterialsMapOntoLuzModels) {
   EXPECT_EQ(d.second.type, BsdfType::RoughPlastic);
 }
 
+// pbrt-v4's diffusetransmission: R = clamp(scale reflectance, 0, 1) and T
+// likewise, textures scaled too. Rendered: a large quad under a distant
+// light of irradiance 1 at cos θ = 2/√5, seen from the camera's side, shows
+// T cos θ / π where the light is behind it and R cos θ / π where it is in
+// front (nothing else is in the scene), in every pixel.
+TEST_F(PbrtScene, DiffuseTransmissionScalesAndTransmits) {
+  const std::string big_quad =
+      "Shape \"trianglemesh\" \"point3 P\" [ -10 -10 0  10 -10 0  10 10 0  -10 10 0 ] \"integer indices\" [ 0 1 2 0 2 3 ]\n"
+      "  \"point2 uv\" [ 0 0  1 0  1 1  0 1 ]\n";
+  auto material = [](const std::string& params) {
+    return "Material \"diffusetransmission\" " + params + "\n";
+  };
+  Scene s = load_scene(write("dt.pbrt", scene_text("", material("\"rgb reflectance\" [ .3 .2 .1 ] \"rgb transmittance\" "
+                                                                "[ .2 .4 .6 ] \"float scale\" 0.5") + big_quad)));
+  ASSERT_EQ(s.materials.size(), 1u);
+  const Bsdf& b = s.materials[0].bsdf;
+  ASSERT_EQ(b.type, BsdfType::DiffuseTransmission);
+  EXPECT_TRUE(b.has_transmission());
+  EXPECT_NEAR(b.diffuse_transmission.reflectance.x, .15f, 1e-7f);
+  EXPECT_NEAR(b.diffuse_transmission.transmittance.z, .3f, 1e-7f);
+  // Defaults (0.25 each), and a scale that takes them past 1: clamped, with a warning.
+  Scene d = load_scene(write("dd.pbrt", scene_text("", material("\"float scale\" 5") + big_quad)));
+  EXPECT_EQ(d.materials[0].bsdf.diffuse_transmission.transmittance.y, 1.f);
+  EXPECT_EQ(d.warnings.size(), 2u);
+  // A scaled texture.
+  Scene t = load_scene(write("dx.pbrt", scene_text("",
+      "Texture \"c\" \"spectrum\" \"checkerboard\" \"rgb tex1\" [ .8 .6 .4 ] \"rgb tex2\" [ .2 .2 .2 ]\n" +
+      material("\"texture transmittance\" \"c\" \"float scale\" 0.5") + big_quad)));
+  const Material& tm = t.materials[0];
+  ASSERT_EQ(tm.num_bindings, 1u);
+  EXPECT_EQ(t.texture_bindings[tm.first_binding].param, BsdfParam::Transmittance);
+  EXPECT_NEAR(tm.bsdf.diffuse_transmission.transmittance.x, .25f, 1e-6f);  // the scaled texture's mean
+  EXPECT_NEAR(tm.bsdf.diffuse_transmission.transmittance.z, .15f, 1e-6f);
+  try {
+    load_scene(write("bad.pbrt", scene_text("", material("\"float scale\" -1") + big_quad)));
+    ADD_FAILURE() << "a negative scale loaded";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'scale' must be a finite number"), std::string::npos) << e.what();
+  }
+
+  const double cos_t = 2.0 / std::sqrt(5.0);
+  for (const bool behind : {true, false}) {
+    const std::string from = behind ? "0 -1 -2" : "0 -1 2";  // the camera is at z = 5
+    Scene r = load_scene(write("dr.pbrt", scene_text("PixelFilter \"box\"\n", material("\"rgb reflectance\" [ .3 .2 .1 ] \"rgb transmittance\" "
+                                                                 "[ .2 .4 .6 ]") +
+                                                      "LightSource \"distant\" \"point3 from\" [ " + from +
+                                                      " ] \"point3 to\" [ 0 0 0 ]\n" + big_quad)));
+    const std::vector<double> m = luz_test::pixel_means(luz_test::render_finite(r));
+    const double expect[3] = {(behind ? .2 : .3) * cos_t / M_PI, (behind ? .4 : .2) * cos_t / M_PI,
+                              (behind ? .6 : .1) * cos_t / M_PI};
+    for (size_t i = 0; i < m.size(); ++i)
+      ASSERT_NEAR(m[i], expect[i % 3], 1e-5 * expect[i % 3]) << (behind ? "behind" : "in front") << ", value " << i;
+  }
+}
+
 // A film's cropwindow (fractions, from the top left; pbrt-v4's pixel
 // bounds: the ceiling of each times the resolution) or pixelbounds: a film
 // of the crop's size whose pixels see what the whole film's saw.

@@ -57,9 +57,10 @@ enum class BsdfType : uint32_t {
   GltfPbr,
   GltfPbrTransmission,
   Principled,
-  PrincipledTransmission,  // the last: kBsdfTypeCount follows it
+  PrincipledTransmission,
+  DiffuseTransmission,  // the last: kBsdfTypeCount follows it
 };
-constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::PrincipledTransmission) + 1;
+constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::DiffuseTransmission) + 1;
 
 // One BSDF model: a tag and the model's parameters in a union (every model
 // is a small trivially copyable struct).
@@ -85,6 +86,7 @@ struct BsdfComponent {
     GltfPbrTransmissionBsdf gltf_pbr_transmission;
     PrincipledBsdf principled;
     PrincipledTransmissionBsdf principled_transmission;
+    DiffuseTransmissionBsdf diffuse_transmission;
   };
 
   // The models' members have default initialisers, so the union needs a
@@ -112,6 +114,7 @@ LUZ_FORCE_INLINE decltype(auto) visit(C& c, F&& f) {
     case BsdfType::GltfPbrTransmission: return f(c.gltf_pbr_transmission);
     case BsdfType::Principled: return f(c.principled);
     case BsdfType::PrincipledTransmission: return f(c.principled_transmission);
+    case BsdfType::DiffuseTransmission: return f(c.diffuse_transmission);
     default: return f(c.rough_plastic);
   }
 }
@@ -428,6 +431,13 @@ struct Bsdf : BsdfComponent {
     b.type = BsdfType::GltfPbrTransmission;
     b.gltf_pbr_transmission.surface = make_gltf_pbr(base_color, metallic, roughness, ior).gltf_pbr;
     b.gltf_pbr_transmission.transmission = transmission;
+    return b;
+  }
+  // pbrt-v4 `diffusetransmission` (diffuse.h): R/π on wo's side, T/π through.
+  LUZ_INLINE static Bsdf make_diffuse_transmission(Color r, Color t) {
+    Bsdf b;
+    b.type = BsdfType::DiffuseTransmission;
+    b.diffuse_transmission = DiffuseTransmissionBsdf{r, t};
     return b;
   }
   // Mitsuba 3 `principled` (principled.h): the model with its parameters

@@ -37,6 +37,7 @@ enum class BsdfParam : uint8_t {
   SheenTint,
   Flatness,
   ClearcoatGloss,
+  Transmittance,  // pbrt-v4's diffusetransmission
 };
 
 // What is transported along the path: radiance (camera paths, the path

@@ -39,6 +39,7 @@ const char* bsdf_name(BsdfType t) {
     case BsdfType::GltfPbrTransmission: return "gltf metallic-roughness transmission";
     case BsdfType::Principled: return "principled";
     case BsdfType::PrincipledTransmission: return "principled (spec_trans)";
+    case BsdfType::DiffuseTransmission: return "diffusetransmission";
   }
   return "?";
 }

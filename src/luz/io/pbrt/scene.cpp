@@ -1326,11 +1326,15 @@ class PbrtScene final : public ParserTarget {
     return out;
   }
 
-  // A reflectance: constants clamped to [0, 1] as pbrt-v4's BxDFs clamp
-  // them; a texture bound to `param`.
+  // A reflectance times `scale`: constants clamped to [0, 1] as pbrt-v4's
+  // BxDFs clamp them; a texture (scaled) bound to `param`.
   Color reflectance(const SourceLoc& at, const ParamSet& ps, const char* name, Color def, BsdfParam param,
-                    MaterialDesc& d) {
-    const ColorParam c = color(ps, name, def, false);
+                    MaterialDesc& d, float scale = 1.f) {
+    ColorParam c = color(ps, name, def, false);
+    if (scale != 1.f) {
+      c.value = c.value * scale;
+      if (c.texture >= 0) c.texture = builder_.add_scaled_texture(at, c.texture, Color{scale, scale, scale});
+    }
     if (c.texture >= 0) {
       // pbrt-v4's materials clamp a reflectance texture's value to [0, 1].
       const bool above = max_component(builder_.texture_stats(c.texture).max) > 1.f;
@@ -1519,13 +1523,12 @@ class PbrtScene final : public ParserTarget {
       d.bsdf = smooth(au, av) ? Bsdf::make_smooth_plastic(kd, {1, 1, 1}, eta, 1.f, true, true)
                               : Bsdf::make_rough_plastic(MicrofacetType::GGX, a, kd, {1, 1, 1}, eta, 1.f, true, true);
     } else if (type == "diffusetransmission") {
-      // Luz has no diffuse transmission: the reflection alone is rendered.
-      const Color r = reflectance(at, ps, "reflectance", {0.25f, 0.25f, 0.25f}, BsdfParam::Reflectance, d);
-      const ColorParam t = color(ps, "transmittance", {0.25f, 0.25f, 0.25f}, false);
-      ps.get_float("scale", 1);
-      if (max_component(t.value) > 0.f)
-        builder_.warn(at, "diffusetransmission is rendered as diffuse reflection only (its transmission is dropped)");
-      d.bsdf = Bsdf::make_diffuse(r, true);
+      // pbrt-v4: R = clamp(scale reflectance, 0, 1), T = clamp(scale transmittance, 0, 1).
+      const float scale = ps.get_float("scale", 1);
+      if (!(scale >= 0.f) || !std::isfinite(scale)) error(at, "diffusetransmission 'scale' must be a finite number ≥ 0");
+      const Color r = reflectance(at, ps, "reflectance", {0.25f, 0.25f, 0.25f}, BsdfParam::Reflectance, d, scale);
+      const Color t = reflectance(at, ps, "transmittance", {0.25f, 0.25f, 0.25f}, BsdfParam::Transmittance, d, scale);
+      d.bsdf = Bsdf::make_diffuse_transmission(r, t);
     } else if (type == "mix") {
       // pbrt-v4 picks one of the two per hit (stochastically by amount):
       // in expectation Luz's blend, (1 − amount) first + amount second.
