@@ -89,6 +89,13 @@ std::vector<Case> build_models() {
   v.push_back({"gltf metallic 0 rough .1 base 0", Bsdf::make_gltf_pbr({0.f, 0.f, 0.f}, 0.f, .1f), .02f});
   v.push_back({"gltf transmission .8 metallic 0 rough .3 base (.9,.6,.3)",
                Bsdf::make_gltf_pbr_transmission({.9f, .6f, .3f}, 0.f, .3f, .8f), 1.f});
+  Bsdf translucent = Bsdf::make_gltf_pbr_transmission({.6f, .8f, .3f}, 0.f, .4f, 0.f);
+  translucent.gltf_pbr_transmission.diffuse_transmission = .7f;
+  translucent.gltf_pbr_transmission.diffuse_transmission_color = {.9f, .9f, .2f};
+  v.push_back({"gltf diffuse transmission .7 rough .4", translucent, 1.f});
+  translucent.gltf_pbr_transmission.transmission = .4f;
+  translucent.gltf_pbr_transmission.surface.metallic = .2f;
+  v.push_back({"gltf transmission .4 diffuse transmission .7 metallic .2", translucent, 1.f});
   v.push_back({"gltf transmission 1 metallic .3 rough .1 base .7",
                Bsdf::make_gltf_pbr_transmission({.7f, .7f, .7f}, .3f, .1f, 1.f), 1.f});
   // KHR_materials_specular: a strength and an F0 colour (clamped in red).
@@ -652,13 +659,20 @@ TEST(BsdfModels, GltfPbrMatchesSpecificationFormulas) {
   // KHR_materials_transmission's thin sheet: on wo's side the diffuse part
   // scaled by 1 - t; across, (1 - m)(1 - F) t base · specular_brdf at the
   // mirrored direction (the extension's H_T); the same seen from below.
+  // KHR_materials_diffuse_transmission (share d, colour c_d) splits the
+  // diffuse part left on wo's side: (1 - t)(1 - d) of it stays, and
+  // (1 - m)(1 - F)(1 - t) d c_d / π passes through.
   for (uint64_t i = 0; i < 5000; ++i) {
     const Color base = {chi2::rand01(62, i, 0), chi2::rand01(62, i, 1), chi2::rand01(62, i, 2)};
-    const float metallic = chi2::rand01(62, i, 3), t = chi2::rand01(62, i, 8);
+    const float metallic = chi2::rand01(62, i, 3), t = i % 4 == 3 ? 0.f : chi2::rand01(62, i, 8);
     const float roughness = 0.05f + 0.95f * chi2::rand01(62, i, 4), ior = 1.f + chi2::rand01(62, i, 5);
+    const float d = i % 3 == 0 ? 0.f : chi2::rand01(62, i, 9);
+    const Color cd = {chi2::rand01(62, i, 10), chi2::rand01(62, i, 11), chi2::rand01(62, i, 12)};
     Vec3 v = square_to_cosine_hemisphere(chi2::rand2(62, i, 6)), l = square_to_cosine_hemisphere(chi2::rand2(62, i, 7));
     if (!(v.z > 1e-3f && l.z > 1e-3f)) continue;
-    const Bsdf b = Bsdf::make_gltf_pbr_transmission(base, metallic, roughness, t, ior);
+    Bsdf b = Bsdf::make_gltf_pbr_transmission(base, metallic, roughness, t, ior);
+    b.gltf_pbr_transmission.diffuse_transmission = d;
+    b.gltf_pbr_transmission.diffuse_transmission_color = cd;
     const std::array<double, 3> refl = reference(base, metallic, roughness, ior, v, l);
     const std::array<double, 3> diffuse_only = reference(base, 0.0, 1e9, ior, v, l);  // D → 0: the Lambert part alone
     const std::array<double, 3> spec_white = reference({0.f, 0.f, 0.f}, 1.0, roughness, ior, v, l);  // spec · w
@@ -667,10 +681,10 @@ TEST(BsdfModels, GltfPbrMatchesSpecificationFormulas) {
     const Color fr = b.f(v, l), ft = b.f(v, below), ft2 = b.f(v_below, l);
     for (int k = 0; k < 3; ++k) {
       const double fd_diffuse = diffuse_only[k] * (1.0 - metallic);  // (1 - m)(1 - F) base / π
-      const double expect_r = refl[k] - t * fd_diffuse;
+      const double expect_r = refl[k] - (1.0 - (1.0 - t) * (1.0 - d)) * fd_diffuse;
       const double w = spec_white[k] / spec_black[k];
       const double f0 = std::pow((ior - 1.0) / (ior + 1.0), 2.0), F = f0 + (1.0 - f0) * w;
-      const double expect_t = (1.0 - metallic) * (1.0 - F) * t * base[k] * spec_black[k];
+      const double expect_t = (1.0 - metallic) * (1.0 - F) * (t * base[k] * spec_black[k] + (1.0 - t) * d * cd[k] / M_PI);
       ASSERT_NEAR(fr[k], expect_r, 1e-4 * refl[k] + 1e-6) << "reflection " << i;
       ASSERT_NEAR(ft[k], expect_t, 1e-4 * expect_t + 1e-6) << "transmission " << i;
       ASSERT_NEAR(ft2[k], ft[k], 1e-6 * ft[k] + 1e-9) << "from below " << i;
@@ -714,6 +728,8 @@ double smith_g1(V v, V m, double ax, double ay) {
   return 2.0 / (1.0 + std::sqrt(1.0 + t2));
 }
 double fresnel(double cos_i, double eta) {
+  if (eta == 1.0) return 0.0;  // Mitsuba's special cases
+  if (cos_i == 0.0) return 1.0;
   const double eta_it = cos_i >= 0.0 ? eta : 1.0 / eta, ci = std::fabs(cos_i);
   const double ct2 = 1.0 - (1.0 - ci * ci) / (eta_it * eta_it);
   if (ct2 <= 0.0) return 1.0;
@@ -751,7 +767,7 @@ D3 eval(const PrincipledParams& q, bool has_trans, V wi, V wo, bool radiance) {
   const bool refl_ok = dot(wi, wh) * s > 0.0 && dot(wo, wh) * s > 0.0;
   const bool refr_ok = dot(wi, wh) * s > 0.0 && dot(wo, wh) * -s > 0.0;
   const double D = ggx_d(wh, ax, ay), G = smith_g1(wi, wh, ax, ay) * smith_g1(wo, wh, ax, ay);
-  const double lum = 0.2126 * q.base_color.x + 0.7152 * q.base_color.y + 0.0722 * q.base_color.z;
+  const double lum = 0.212671 * q.base_color.x + 0.715160 * q.base_color.y + 0.072169 * q.base_color.z;
   for (int c = 0; c < 3; ++c) {
     const double base = q.base_color[c], tint = lum > 0.0 ? base / lum : 1.0;
     double v = 0.0;
@@ -805,13 +821,14 @@ TEST(BsdfModels, PrincipledMatchesMitsubaFormulas) {
     PrincipledParams q;
     q.base_color = {u(0), u(1), u(2)};
     if (i % 7 == 0) q.base_color = {0.f, 0.f, 0.f};
-    q.roughness = 0.1f + 0.9f * u(3);
+    q.roughness = i % 13 == 0 ? 0.05f * u(3) : 0.1f + 0.9f * u(3);  // below 0.032: α at its floor, 0.001
     q.anisotropic = i % 2 ? u(4) : 0.f;
     q.metallic = i % 4 == 0 ? 0.f : (i % 4 == 1 ? 1.f : u(5));
     q.spec_tint = u(6), q.sheen = u(7), q.sheen_tint = u(8), q.flatness = i % 3 ? u(9) : 0.f;
     q.clearcoat = i % 3 == 1 ? 0.f : u(10), q.clearcoat_gloss = u(11);
     q.eta = i % 5 == 0 ? 0.6f + 0.35f * u(12) : 1.05f + 1.5f * u(12);
     const bool trans = i % 2 == 0;
+    if (i % 11 == 1 && !trans) q.eta = 1.f;  // no main reflection at all, even for metals
     q.spec_trans = trans ? (i % 8 == 0 ? 1.f : u(13)) : 0.f;
     const Bsdf b = Bsdf::make_principled(q, trans);
     Vec3 v = square_to_uniform_sphere(chi2::rand2(71, i, 14)), l = square_to_uniform_sphere(chi2::rand2(71, i, 15));

@@ -431,6 +431,13 @@ struct BatchCase {
   Bsdf b;
   bool both_sides;  // bin over the whole sphere (transmission)
 };
+// glTF's thin sheet with KHR_materials_diffuse_transmission.
+Bsdf gltf_translucent() {
+  Bsdf b = Bsdf::make_gltf_pbr_transmission({.7f, .8f, .4f}, .1f, .35f, .2f);
+  b.gltf_pbr_transmission.diffuse_transmission = .6f;
+  b.gltf_pbr_transmission.diffuse_transmission_color = {.9f, .7f, .3f};
+  return b;
+}
 std::vector<BatchCase> batch_cases() {
   Color eta, k;
   find_conductor_preset("Cu", eta, k);
@@ -452,6 +459,7 @@ std::vector<BatchCase> batch_cases() {
       {"ward-duer (.2,.1)", Bsdf::make_ward(WardVariant::WardDuer, {.3f, .3f, .3f}, {.6f, .6f, .6f}, .2f, .1f), false},
       {"gltf metallic .3 rough .4", Bsdf::make_gltf_pbr({.8f, .5f, .2f}, .3f, .4f), false},
       {"gltf transmission .7 rough .3", Bsdf::make_gltf_pbr_transmission({.9f, .9f, .6f}, 0.f, .3f, .7f), true},
+      {"gltf diffuse transmission .6", gltf_translucent(), true},
       {"diffusetransmission R .6 T .3", Bsdf::make_diffuse_transmission({.6f, .5f, .4f}, {.3f, .3f, .2f}), true},
       {"principled (documentation example)", luz_test::principled_doc_example(0.f), false},
       {"principled (documentation example, spec_trans .4)", luz_test::principled_doc_example(.4f), true},

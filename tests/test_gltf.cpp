@@ -266,6 +266,17 @@ class GltfFiles : public TempDirTest {
     write_image((dir / "tex.png").string(), img);
     return img;
   }
+  // rgba.tga, 2×2 RGBA texels of other values than 0 and 1 (stored B, G, R,
+  // A, top row first: top right (R, G, B, A) = (200, 100, 50, 128)); returns
+  // `doc` with tex.png replaced by it.
+  std::string with_rgba_texels(std::string doc) {
+    const unsigned char tga[18 + 16] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 2, 0, 32, 8 | 0x20,
+                                        32, 64, 128, 255, 50, 100, 200, 128,  // top row
+                                        30, 20, 10, 64, 255, 255, 255, 0};    // bottom row
+    write("rgba.tga", std::string(reinterpret_cast<const char*>(tga), sizeof tga));
+    doc.replace(doc.find("tex.png"), 7, "rgba.tga");
+    return doc;
+  }
   // The quad with TEXCOORD_0 (0, 0), (1, 0), (0, 1), (1, 1) (accessor 3):
   // its bytes, and its JSON up to a primitive of material 0 and tex.png as image 0.
   std::string textured_quad_bin() { return quad_bin() + bytes(std::vector<float>{0, 0, 1, 0, 0, 1, 1, 1}); }
@@ -650,16 +661,10 @@ TEST_F(GltfFiles, SpecularExtensionFactorsAndTextures) {
   EXPECT_NEAR(at.gltf_pbr.specular_strength, 0.3f, 1e-6f);
   EXPECT_NEAR(at.gltf_pbr.specular_color.x, 0.f, 1e-6f);
   EXPECT_NEAR(at.gltf_pbr.specular_color.y, 1.f, 1e-6f);
-  // Texels of other values than 0 and 1: a 2×2 RGBA TGA (stored B, G, R, A,
-  // top row first). The strength reads A linearly, the colour RGB as sRGB.
-  const unsigned char tga[18 + 16] = {0, 0, 2, 0, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 2, 0, 32, 8 | 0x20,
-                                      32, 64, 128, 255, 50, 100, 200, 128,  // top row
-                                      30, 20, 10, 64, 255, 255, 255, 0};    // bottom row
-  write("spec.tga", std::string(reinterpret_cast<const char*>(tga), sizeof tga));
-  std::string rgba = doc("\"specularFactor\":0.3,\"specularTexture\":{\"index\":0},"
-                         "\"specularColorFactor\":[2,1,0.5],\"specularColorTexture\":{\"index\":0}");
-  rgba.replace(rgba.find("tex.png"), 7, "spec.tga");
-  Scene r = load_scene(gltf("rgba.gltf", bin, rgba));
+  // Texels of other values than 0 and 1: the strength reads A linearly, the
+  // colour RGB as sRGB.
+  Scene r = load_scene(gltf("rgba.gltf", bin, with_rgba_texels(doc("\"specularFactor\":0.3,\"specularTexture\":{\"index\":0},"
+                                                                  "\"specularColorFactor\":[2,1,0.5],\"specularColorTexture\":{\"index\":0}"))));
   const SceneView rv = r.view();
   const Bsdf texel = rv.materials.bsdf(0, rv.textures, {0.75f, 0.25f});  // top right: (200, 100, 50, 128)
   auto srgb = [](double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); };
@@ -728,6 +733,67 @@ TEST_F(GltfFiles, ClearcoatExtensionFactorsAndTextures) {
   EXPECT_EQ(opaque.materials[0].bsdf.gltf_pbr.clearcoat, 0.5f);
   luz_test::expect_load_refused(gltf("bad.gltf", bin, doc("\"clearcoatFactor\":1.5")), "bad.gltf",
                                 "clearcoatFactor must lie in [0, 1]");
+}
+
+// KHR_materials_diffuse_transmission: diffuseTransmissionFactor times its
+// texture's A (linear) is the share of the diffuse part that passes through,
+// diffuseTransmissionColorFactor times its texture (sRGB) its colour; a
+// factor above 0 makes the thin transmitting sheet (also without
+// KHR_materials_transmission); the extension is not warned about; bad
+// factors are errors.
+TEST_F(GltfFiles, DiffuseTransmissionExtensionFactorsAndTextures) {
+  four_texels();
+  const std::string bin = textured_quad_bin();
+  auto doc = [&](const std::string& dt, const std::string& more = "") {
+    return textured_quad_json() + ",\"textures\":[{\"source\":0}],"
+           "\"extensionsUsed\":[\"KHR_materials_diffuse_transmission\"],\"materials\":[{"
+           "\"pbrMetallicRoughness\":{\"metallicFactor\":0},\"extensions\":{\"KHR_materials_diffuse_transmission\":{" +
+           dt + "}" + more + "}}]";
+  };
+  Scene c = load_scene(gltf("constant.gltf", bin, doc("\"diffuseTransmissionFactor\":0.6,"
+                                                      "\"diffuseTransmissionColorFactor\":[1,0.5,0.25]")));
+  ASSERT_EQ(c.materials[0].bsdf.type, BsdfType::GltfPbrTransmission);
+  const GltfPbrTransmissionBsdf& sheet = c.materials[0].bsdf.gltf_pbr_transmission;
+  EXPECT_EQ(sheet.transmission, 0.f);
+  EXPECT_EQ(sheet.diffuse_transmission, 0.6f);
+  EXPECT_EQ(sheet.diffuse_transmission_color.y, 0.5f);
+  EXPECT_EQ(c.materials[0].num_bindings, 0u);
+  EXPECT_FALSE(luz_test::has_warning(c, "KHR_materials_diffuse_transmission"));
+  // A zero factor (the default) is no transmission, its texture none.
+  Scene off = load_scene(gltf("off.gltf", bin, doc("\"diffuseTransmissionTexture\":{\"index\":0}")));
+  EXPECT_EQ(off.materials[0].bsdf.type, BsdfType::GltfPbr);
+  EXPECT_EQ(off.materials[0].num_bindings, 0u);
+  // With specular transmission as well (the extension's combined mix).
+  Scene both = load_scene(gltf("both.gltf", bin, doc("\"diffuseTransmissionFactor\":1",
+                                                     ",\"KHR_materials_transmission\":{\"transmissionFactor\":0.5}")));
+  EXPECT_EQ(both.materials[0].bsdf.gltf_pbr_transmission.transmission, 0.5f);
+  EXPECT_EQ(both.materials[0].bsdf.gltf_pbr_transmission.diffuse_transmission, 1.f);
+  // Textures of texels other than 0 and 1.
+  Scene t = load_scene(gltf("textured.gltf", bin,
+                            with_rgba_texels(doc("\"diffuseTransmissionFactor\":0.8,\"diffuseTransmissionTexture\":{\"index\":0},"
+                                                 "\"diffuseTransmissionColorFactor\":[1,0.5,0.25],"
+                                                 "\"diffuseTransmissionColorTexture\":{\"index\":0}"))));
+  const Material& m = t.materials[0];
+  ASSERT_EQ(m.num_bindings, 2u);
+  const TextureBinding& a = t.texture_bindings[m.first_binding], &b = t.texture_bindings[m.first_binding + 1];
+  EXPECT_EQ(a.param, BsdfParam::DiffuseTransmission);
+  EXPECT_EQ(t.textures[size_t(a.texture)].bitmap.channel, TextureChannel::A);
+  EXPECT_EQ(b.param, BsdfParam::DiffuseTransmissionColor);
+  EXPECT_TRUE(t.textures[size_t(b.texture)].bitmap.srgb);
+  const SceneView v = t.view();
+  const Bsdf texel = v.materials.bsdf(0, v.textures, {0.75f, 0.25f});  // top right: (200, 100, 50, 128)
+  auto srgb = [](double x) { return x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4); };
+  EXPECT_NEAR(texel.gltf_pbr_transmission.diffuse_transmission, 0.8 * 128 / 255.0, 1e-6);
+  EXPECT_NEAR(texel.gltf_pbr_transmission.diffuse_transmission_color.x, srgb(200 / 255.0), 1e-5);
+  EXPECT_NEAR(texel.gltf_pbr_transmission.diffuse_transmission_color.y, 0.5 * srgb(100 / 255.0), 1e-5);
+  EXPECT_NEAR(texel.gltf_pbr_transmission.diffuse_transmission_color.z, 0.25 * srgb(50 / 255.0), 1e-5);
+  luz_test::expect_load_refused(gltf("bad1.gltf", bin, doc("\"diffuseTransmissionFactor\":1.5")), "bad1.gltf",
+                                "diffuseTransmissionFactor must lie in [0, 1]");
+  luz_test::expect_load_refused(gltf("bad2.gltf", bin, doc("\"diffuseTransmissionFactor\":0.5,"
+                                                           "\"diffuseTransmissionColorFactor\":[1,2,1]")),
+                                "bad2.gltf", "diffuseTransmissionColorFactor must lie in [0, 1]");
+  luz_test::expect_load_refused(gltf("bad3.gltf", bin, doc("\"diffuseTransmissionColorFactor\":[1,1]")), "bad3.gltf",
+                                "diffuseTransmissionColorFactor needs 3 numbers");
 }
 
 // Normal textures (§3.9.3, tangents by MikkTSpace where TANGENT is absent):

@@ -508,12 +508,15 @@ TEST_F(MitsubaBsdfs, Principled) {
   EXPECT_FLOAT_EQ(q.diffuse_rate, 3.f);
 
   // spec_trans 0 is no transmission (Mitsuba's get_flag); eta as given, and
-  // 1 raised to 1.001 (specular 0 to 1e-3) where the material transmits.
+  // 1 raised to 1.001 (specular 0 to 1e-3) where the material transmits, as
+  // Mitsuba; within 1e-3 of 1 likewise (NaN weights in float there).
   EXPECT_EQ(material("<bsdf type=\"principled\"><float name=\"spec_trans\" value=\"0\"/></bsdf>").type, BsdfType::Principled);
   EXPECT_FLOAT_EQ(material("<bsdf type=\"principled\"><float name=\"eta\" value=\"1.33\"/></bsdf>").principled.eta, 1.33f);
   EXPECT_FLOAT_EQ(material("<bsdf type=\"principled\"><float name=\"eta\" value=\"1\"/></bsdf>").principled.eta, 1.f);
   EXPECT_FLOAT_EQ(material("<bsdf type=\"principled\"><float name=\"eta\" value=\"1\"/>"
                            "<float name=\"spec_trans\" value=\"1\"/></bsdf>").principled_transmission.eta, 1.001f);
+  EXPECT_FLOAT_EQ(material("<bsdf type=\"principled\"><float name=\"eta\" value=\"0.9995\"/>"
+                           "<float name=\"spec_trans\" value=\"1\"/></bsdf>").principled_transmission.eta, 1.f / 1.001f);
   EXPECT_FLOAT_EQ(material("<bsdf type=\"principled\"><float name=\"specular\" value=\"0\"/>"
                            "<float name=\"spec_trans\" value=\"1\"/></bsdf>").principled_transmission.eta,
                   2.f / (1.f - std::sqrt(0.08f * 1e-3f)) - 1.f);

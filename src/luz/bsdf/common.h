@@ -38,6 +38,8 @@ enum class BsdfParam : uint8_t {
   Flatness,
   ClearcoatGloss,
   Transmittance,  // pbrt-v4's diffusetransmission
+  DiffuseTransmission,  // KHR_materials_diffuse_transmission: the factor
+  DiffuseTransmissionColor,
 };
 
 // What is transported along the path: radiance (camera paths, the path

@@ -40,6 +40,12 @@
 // The sheet looks the same from either side, and with η = 1 on both sides
 // it is reciprocal in both transport modes.
 //
+// KHR_materials_diffuse_transmission (factor d, colour c_d) splits the
+// diffuse part that remains: base / π on wo's side times (1 - d), and
+// c_d / π through the surface times d, i.e. the dielectric's base is
+//   mix(mix(base / π, c_d / π across, d), specular_btdf · base, transmission),
+// its Fresnel weight for a pair across taken at H_T as above.
+//
 // Sampling: GGX visible normals from wo (wi = reflect(wo, m)) with
 // probability P_s, cosine-weighted otherwise, P_s from a Schlick estimate at wo:
 //   s = (1 - metallic) F + metallic,  d = (1 - metallic) (1 - F) mean(base),  F = max(F(cos θo)),
@@ -50,6 +56,8 @@
 // the rest as above.
 //
 // Scene-file names (glTF's): baseColorFactor/Texture -> base_color,
+// diffuseTransmissionFactor/Texture (A) -> diffuse_transmission,
+// diffuseTransmissionColorFactor/Texture -> diffuse_transmission_color,
 // metallicFactor (B channel) -> metallic, roughnessFactor (G channel) ->
 // roughness, specularFactor/Texture (A) -> specular_strength,
 // specularColorFactor/Texture -> specular_color. One-sided: the Bsdf
@@ -175,24 +183,32 @@ struct GltfPbrBsdf {
   }
 };
 
-// glTF metallic-roughness with KHR_materials_transmission (see the top): a
-// thin sheet, the same from both sides. f for wi across the surface is
-//   (1 - metallic) (1 - F(|wo·h_t|)) transmission · base · specular_brdf(wo, w̄i),
+// glTF metallic-roughness with KHR_materials_transmission (t) and
+// KHR_materials_diffuse_transmission (d, c_d) (see the top): a thin sheet,
+// the same from both sides. f for wi across the surface is
+//   (1 - metallic) (1 - F(|wo·h_t|)) (t · base · specular_brdf(wo, w̄i) + (1 - t) d c_d / π),
 // w̄i = wi mirrored through the surface, h_t = normalize(wo + w̄i); on wo's side
-// it is GltfPbrBsdf's f with the diffuse part scaled by 1 - transmission.
+// it is GltfPbrBsdf's f with the diffuse part scaled by (1 - t)(1 - d).
 // Sampling: the specular lobe with P_s as GltfPbrBsdf, else the base lobes in
-// the ratio (1 - transmission) : transmission, the transmitted one as the
-// specular lobe's sample mirrored.
+// the ratio (1 - t)(1 - d) : t : (1 - t) d, the specular transmission as the
+// specular lobe's sample mirrored, the diffuse ones cosine-weighted on
+// either side.
 struct GltfPbrTransmissionBsdf {
   static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = true;
-  LUZ_INLINE Color* color_param(BsdfParam p) { return surface.color_param(p); }
+  LUZ_INLINE Color* color_param(BsdfParam p) {
+    return p == BsdfParam::DiffuseTransmissionColor ? &diffuse_transmission_color : surface.color_param(p);
+  }
   LUZ_INLINE float* float_param(BsdfParam p) {
-    return p == BsdfParam::Transmission ? &transmission : surface.float_param(p);
+    return p == BsdfParam::Transmission ? &transmission
+         : p == BsdfParam::DiffuseTransmission ? &diffuse_transmission : surface.float_param(p);
   }
   GltfPbrBsdf surface;
   float transmission = 0.f;
+  float diffuse_transmission = 0.f;
+  Color diffuse_transmission_color{1.f, 1.f, 1.f};
 
   LUZ_INLINE float share() const { return clamp(transmission, 0.f, 1.f); }
+  LUZ_INLINE float diffuse_share() const { return clamp(diffuse_transmission, 0.f, 1.f); }
   LUZ_INLINE static Vec3 mirror(Vec3 w) { return {w.x, w.y, -w.z}; }
 
   // Both directions brought to the upper side (the sheet is symmetric).
@@ -202,39 +218,44 @@ struct GltfPbrTransmissionBsdf {
   }
   LUZ_INLINE Color f(Vec3 wo, Vec3 wi, TransportMode) const {
     if (!upper(wo, wi)) return {};
-    const float t = share();
-    if (wi.z > 0.f) return surface.reflection(wo, wi, 1.f - t);
+    const float t = share(), d = diffuse_share();
+    if (wi.z > 0.f) return surface.reflection(wo, wi, (1.f - t) * (1.f - d));
     const Vec3 wm = mirror(wi);
     const Vec3 h = normalize(wo + wm);
-    const float spec = surface.specular(wo, wm, h);
+    const float spec = t > 0.f ? surface.specular(wo, wm, h) : 0.f;
     const float fd = max_component(surface.dielectric_fresnel(GltfPbrBsdf::schlick_weight(fabsf(dot(wo, h)))));
-    return surface.base_color * ((1.f - surface.metal()) * (1.f - fd) * t * spec);
+    const float w = (1.f - surface.metal()) * (1.f - fd);
+    Color v = surface.base_color * (w * t * spec);
+    if (d > 0.f) v += diffuse_transmission_color * (w * (1.f - t) * d * kInvPi);
+    return v;
   }
-  // Lobe probabilities at wo (upper side): specular, diffuse, transmitted.
-  LUZ_INLINE void lobes(float cos_o, float& ps, float& pd, float& pt) const {
+  // Lobe probabilities at wo (upper side): specular, diffuse, specular
+  // transmission, diffuse transmission.
+  LUZ_INLINE void lobes(float cos_o, float& ps, float& pd, float& pt, float& pdt) const {
     ps = surface.specular_probability(cos_o);
-    const float t = share();
-    pd = (1.f - ps) * (1.f - t);
+    const float t = share(), d = diffuse_share();
+    pd = (1.f - ps) * (1.f - t) * (1.f - d);
     pt = (1.f - ps) * t;
+    pdt = (1.f - ps) * (1.f - t) * d;
   }
   LUZ_INLINE float pdf(Vec3 wo, Vec3 wi) const {
     if (!upper(wo, wi)) return 0.f;
-    float ps, pd, pt;
-    lobes(wo.z, ps, pd, pt);
+    float ps, pd, pt, pdt;
+    lobes(wo.z, ps, pd, pt, pdt);
     const bool across = wi.z < 0.f;
     const Vec3 wr = across ? mirror(wi) : wi;
     const Vec3 h = normalize(wo + wr);
     const float woh = dot(wo, h);
     const float spec = woh > 0.f ? surface.dist().pdf_visible(wo, h) / (4.f * woh) : 0.f;
-    return across ? pt * spec : ps * spec + pd * cosine_hemisphere_pdf(wi);
+    return (across ? pt : ps) * spec + (across ? pdt : pd) * cosine_hemisphere_pdf(wr);
   }
   LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2, TransportMode mode) const {
     BsdfSample s;
     const bool below = wo.z < 0.f;
     Vec3 w = below ? mirror(wo) : wo;
     if (!(w.z > 0.f)) return s;
-    float ps, pd, pt;
-    lobes(w.z, ps, pd, pt);
+    float ps, pd, pt, pdt;
+    lobes(w.z, ps, pd, pt, pdt);
     if (u1 < ps + pt) {
       const Vec3 h = surface.dist().sample_visible_ggx(w, u2);
       if (!(dot(w, h) > 0.f)) return s;
@@ -243,6 +264,7 @@ struct GltfPbrTransmissionBsdf {
       if (u1 >= ps) s.wi = mirror(s.wi);
     } else {
       s.wi = square_to_cosine_hemisphere(u2);
+      if (pdt > 0.f && u1 >= ps + pt + pd) s.wi = mirror(s.wi);
     }
     if (below) s.wi = mirror(s.wi);
     s.pdf = pdf(wo, s.wi);

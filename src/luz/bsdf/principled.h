@@ -105,9 +105,10 @@ struct PrincipledModel : PrincipledParams {
     const float inv = 1.f / eta_it;
     return schlick_weight(safe_sqrt(1.f - (1.f - cos_i * cos_i) * inv * inv));
   }
-  // luminance(base), or 1 for a black base (Mitsuba's c_tint = 1 there).
+  // base / luminance(base) (Mitsuba's weights of linear sRGB), or 1 for a
+  // black base (Mitsuba's c_tint = 1 there).
   LUZ_INLINE Color tint_color() const {
-    const float lum = luminance(base_color);
+    const float lum = 0.212671f * base_color.x + 0.715160f * base_color.y + 0.072169f * base_color.z;
     return lum > 0.f ? base_color / lum : Color{1.f, 1.f, 1.f};
   }
   // F_p on the front, at v·h = cos_i (> 0 there).

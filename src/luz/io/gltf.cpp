@@ -37,8 +37,10 @@
 //    the base's shading normal, its own normal texture ignored with a
 //    warning; emission is not darkened by it; not on transmitting
 //    materials); KHR_materials_transmission
-//    (factor, texture's R) makes it gltf_pbr.h's thin transmitting sheet
-//    (two-sided whatever doubleSided says; KHR_materials_volume ignored).
+//    (factor, texture's R) and KHR_materials_diffuse_transmission (factor,
+//    texture's A; colour factor, sRGB texture) make it gltf_pbr.h's thin
+//    transmitting sheet (two-sided whatever doubleSided says;
+//    KHR_materials_volume ignored).
 //  - Emission: emissiveFactor × emissiveTexture × KHR_materials_emissive_strength
 //    is the radiance of the primitive's triangles as area lights (front side;
 //    both with doubleSided, whose "double-sided lighting" covers emission):
@@ -281,7 +283,7 @@ class GltfLoader {
     static const std::set<std::string> supported = {
         "KHR_texture_transform", "KHR_materials_emissive_strength", "KHR_lights_punctual", "KHR_materials_ior",
         "KHR_mesh_quantization", "KHR_materials_transmission", "KHR_materials_specular",
-        "KHR_materials_clearcoat"};
+        "KHR_materials_clearcoat", "KHR_materials_diffuse_transmission"};
     for (const std::string& e : model_.extensionsRequired)
       if (!supported.count(e)) fail("", "requires extension " + e + ", which Luz does not support");
     // Optional ones are left out with a word (KHR_materials_volume: where a
@@ -1017,22 +1019,40 @@ class GltfLoader {
     // and F0 colour (sRGB texture; the factor may exceed 1).
     const float specular = unit(extension_number(m.extensions, "KHR_materials_specular", "specularFactor", 1.0, where),
                                 "specularFactor");
-    Color specular_color{1.f, 1.f, 1.f};
-    if (auto sx = m.extensions.find("KHR_materials_specular");
-        sx != m.extensions.end() && sx->second.Has("specularColorFactor")) {
-      const tinygltf::Value& c = sx->second.Get("specularColorFactor");
-      if (!c.IsArray() || c.ArrayLen() != 3) fail(where, "specularColorFactor needs 3 numbers");
+    // An extension's colour factor: 3 numbers, finite and >= 0, at most 1
+    // where `unit`; white where absent.
+    auto color_factor = [&](const char* ext, const char* name, bool unit) {
+      Color c{1.f, 1.f, 1.f};
+      auto x = m.extensions.find(ext);
+      if (x == m.extensions.end() || !x->second.Has(name)) return c;
+      const tinygltf::Value& v = x->second.Get(name);
+      if (!v.IsArray() || v.ArrayLen() != 3) fail(where, std::string(name) + " needs 3 numbers");
       for (int k = 0; k < 3; ++k) {
-        const tinygltf::Value& x = c.Get(k);
-        if (!x.IsNumber() || !(x.GetNumberAsDouble() >= 0.0 && x.GetNumberAsDouble() < 1e30))
-          fail(where, "specularColorFactor must be finite and >= 0");
-        specular_color[k] = float(x.GetNumberAsDouble());
+        const tinygltf::Value& e = v.Get(k);
+        const double d = e.IsNumber() ? e.GetNumberAsDouble() : -1.0;
+        if (!(d >= 0.0 && d <= (unit ? 1.0 : 1e30)))
+          fail(where, std::string(name) + (unit ? " must lie in [0, 1]" : " must be finite and >= 0"));
+        c[k] = float(d);
       }
-    }
+      return c;
+    };
+    const Color specular_color = color_factor("KHR_materials_specular", "specularColorFactor", false);
     const ExtensionTexture specular_tex = extension_texture(m.extensions, "KHR_materials_specular", "specularTexture", where);
     const ExtensionTexture specular_color_tex =
         extension_texture(m.extensions, "KHR_materials_specular", "specularColorTexture", where);
-    const bool transmissive = transmission > 0.f;  // (its texture times a zero factor is none)
+    // KHR_materials_diffuse_transmission: the diffuse part's share that
+    // passes through (A of its texture) and its colour (sRGB texture).
+    const float diffuse_transmission =
+        unit(extension_number(m.extensions, "KHR_materials_diffuse_transmission", "diffuseTransmissionFactor", 0.0, where),
+             "diffuseTransmissionFactor");
+    const Color diffuse_transmission_color =
+        color_factor("KHR_materials_diffuse_transmission", "diffuseTransmissionColorFactor", true);
+    const ExtensionTexture dt_tex =
+        extension_texture(m.extensions, "KHR_materials_diffuse_transmission", "diffuseTransmissionTexture", where);
+    const ExtensionTexture dt_color_tex =
+        extension_texture(m.extensions, "KHR_materials_diffuse_transmission", "diffuseTransmissionColorTexture", where);
+    // (A texture times a zero factor is none.)
+    const bool transmissive = transmission > 0.f || diffuse_transmission > 0.f;
     if (transmissive && m.extensions.count("KHR_materials_volume"))
       warn(where + ": KHR_materials_volume is not supported; the transmission is a thin sheet");
     Bsdf b = transmissive ? Bsdf::make_gltf_pbr_transmission(base, metallic, roughness, transmission, float(ior))
@@ -1067,7 +1087,18 @@ class GltfLoader {
       return mean;
     };
     const Color one{1.f, 1.f, 1.f};
-    if (transmissive && transmission_tex.index >= 0)
+    if (diffuse_transmission > 0.f) {
+      GltfPbrTransmissionBsdf& sheet = b.gltf_pbr_transmission;
+      sheet.diffuse_transmission = diffuse_transmission;
+      sheet.diffuse_transmission_color = diffuse_transmission_color;
+      if (dt_tex.index >= 0)
+        sheet.diffuse_transmission = bind(dt_tex, TextureChannel::A, false, one * diffuse_transmission,
+                                          "diffuseTransmissionTexture", BsdfParam::DiffuseTransmission).x;
+      if (dt_color_tex.index >= 0)
+        sheet.diffuse_transmission_color = bind(dt_color_tex, TextureChannel::Rgb, true, diffuse_transmission_color,
+                                                "diffuseTransmissionColorTexture", BsdfParam::DiffuseTransmissionColor);
+    }
+    if (transmission > 0.f && transmission_tex.index >= 0)
       b.gltf_pbr_transmission.transmission =
           bind(transmission_tex, TextureChannel::R, false, one * transmission, "transmissionTexture", BsdfParam::Transmission).x;
     if (specular_tex.index >= 0)

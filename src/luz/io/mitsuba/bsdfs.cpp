@@ -331,6 +331,8 @@ ParsedBsdf MitsubaParser::parse_bsdf_element(pugi::xml_node n) {
 // documentation asks. spec_trans given as a texture or a non-zero number
 // makes the material transmissive (Mitsuba's m_has_spec_trans), and then an
 // eta of 1 becomes 1.001 and a specular of 0 becomes 1e-3, as there.
+// Sampling rates of 0 become 0.01: Mitsuba 3 would leave the main lobe's
+// refraction unsampled (light through the surface lost), or divide by 0.
 Bsdf MitsubaParser::principled(pugi::xml_node n, Props& p, std::vector<TextureBinding>& tb) {
   auto unit = [&](const char* name, float def, BsdfParam param, bool* given = nullptr) {
     int32_t t = -1;
@@ -356,16 +358,18 @@ Bsdf MitsubaParser::principled(pugi::xml_node n, Props& p, std::vector<TextureBi
   if (p.has("eta")) {
     q.eta = float(p.get_float("eta", 1.5));
     if (!(q.eta >= 0.1f && q.eta <= 10.f)) error(n, "principled 'eta' must lie in [0.1, 10] (a relative index of refraction)");
-    if (transmits && q.eta == 1.f) q.eta = 1.001f;
+    // Mitsuba raises 1 to 1.001; Luz also moves what lies within 1e-3 of 1
+    // there (or to 1/1.001), where refraction nearly straight through has
+    // an unbounded density and NaN sample weights in float.
+    if (transmits && std::fabs(q.eta - 1.f) < 1e-3f) q.eta = q.eta >= 1.f ? 1.001f : 1.f / 1.001f;
   } else {
     float specular = float(p.get_float("specular", 0.5));
     if (!(specular >= 0.f && specular <= 1.f)) error(n, "principled 'specular' must lie in [0, 1]");
     if (transmits && specular == 0.f) specular = 1e-3f;
     q.eta = PrincipledParams::specular_to_eta(specular);
   }
-  // Sampling weights: they change the noise, not the image. A weight of 0
-  // would leave its lobe to light sampling alone (Mitsuba 3 then loses what
-  // only that lobe finds); Luz keeps sampling it a little.
+  // Sampling weights: they change the noise, not the image; a weight of 0 is
+  // sampled a little all the same (above).
   auto rate = [&](const char* name, float& r) {
     const double v = p.get_float(name, 1.0);
     if (!(v >= 0.0 && v < 1e6)) error(n, std::string("principled '") + name + "' must be a finite number ≥ 0");
