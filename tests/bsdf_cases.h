@@ -24,4 +24,17 @@ inline luz::Bsdf principled_doc_example(float spec_trans) {
   return luz::Bsdf::make_principled(p, spec_trans > 0.f);
 }
 
+// The example of Mitsuba 3's principledthin documentation.
+inline luz::Bsdf principledthin_doc_example() {
+  luz::PrincipledThinBsdf p;
+  p.base_color = {.7f, .1f, .1f};
+  p.roughness = .15f;
+  p.spec_tint = .1f;
+  p.anisotropic = .5f;
+  p.spec_trans = .8f;
+  p.diff_trans = .3f;
+  p.eta = 1.33f;
+  return luz::Bsdf::make_principled_thin(p);
+}
+
 }  // namespace luz_test

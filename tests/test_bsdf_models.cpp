@@ -146,6 +146,24 @@ std::vector<Case> build_models() {
   layered.sheen_tint = .5f;
   layered.anisotropic = .8f;
   v.push_back({"principled coat 1 gloss .5 flatness .6 sheen 1 aniso .8", principled(layered), .1f});
+  // principledthin: its documentation's example, Blender's Translucent as
+  // the mitsuba-blender add-on exports it (diff_trans 2), a sheer cloth.
+  v.push_back({"principledthin doc example", luz_test::principledthin_doc_example(), 1.f});
+  PrincipledThinBsdf leaf;
+  leaf.base_color = {.2f, .6f, .4f};
+  leaf.diff_trans = 2.f;
+  v.push_back({"principledthin diff_trans 2 (Blender's Translucent)", Bsdf::make_principled_thin(leaf), 1.f});
+  PrincipledThinBsdf cloth;
+  cloth.base_color = {.8f, .7f, .5f};
+  cloth.roughness = .7f;
+  cloth.spec_trans = .3f;
+  cloth.diff_trans = 1.f;
+  cloth.sheen = .8f;
+  cloth.sheen_tint = .5f;
+  cloth.flatness = .5f;
+  cloth.spec_tint = .4f;
+  cloth.eta = 1.6f;
+  v.push_back({"principledthin cloth sheen .8 flatness .5", Bsdf::make_principled_thin(cloth), 1.f});
   v.push_back({"twosided ggx .2 conductor / diffuse .7",
                Bsdf::make_two_sided(Bsdf::make_rough_conductor(G, .2f, .2f, au_eta(), au_k()),
                                     Bsdf::make_diffuse({.7f, .7f, .7f})), 1.f});
@@ -308,6 +326,13 @@ TEST(BsdfModels, SampleWeightMatchesEval) {
 // half vector's rounding into a larger change of D, and near the critical
 // angle 1 - F is ill-conditioned (cos θt = sqrt of a cancellation).
 TEST(BsdfModels, Reciprocity) {
+  // Whether principledthin's transmission mask (Mitsuba's, the facet seen by
+  // the transmitted direction itself) lets the pair (v, l) across through.
+  auto thin_open = [](Vec3 v, Vec3 l) {
+    if (v.z < 0.f) v = -v, l = -l;
+    const Vec3 h = normalize(v + Vec3{l.x, l.y, std::fabs(l.z)});
+    return dot(v, h) > 0.f && dot(l, h) < 0.f;
+  };
   for (const Case& c : models()) {
     int nonzero = 0;
     for (uint64_t i = 0; i < 20000; ++i) {
@@ -323,12 +348,14 @@ TEST(BsdfModels, Reciprocity) {
         s1 = sqr(side_eta(c.b, a)), s2 = sqr(side_eta(c.b, d));
         Color fi = c.b.f(d, a, TransportMode::Importance);
         for (int k = 0; k < 3; ++k) ASSERT_NEAR(fi[k], f1[k], 1e-4f * f1[k] + sens(k) + 1e-6f) << c.name << " adjoint";
+      } else if (c.b.type == BsdfType::PrincipledThin && a.z * d.z < 0.f && !(thin_open(a, d) && thin_open(d, a))) {
+        continue;  // principledthin's transmission mask (principled.h): open one way only
       } else if (c.b.has_transmission() && c.b.type != BsdfType::GltfPbrTransmission &&
-                 c.b.type != BsdfType::DiffuseTransmission) {
+                 c.b.type != BsdfType::DiffuseTransmission && c.b.type != BsdfType::PrincipledThin) {
         continue;  // blends with a dielectric: covered by their parts
       } else if (c.b.type == BsdfType::GltfPbr && c.b.gltf_pbr.clearcoat > 0.f) {
         break;  // the glTF clear coat's Fresnel at n·wo (gltf_pbr.h): not reciprocal by its definition
-      }  // the glTF thin sheet and the diffuse transmitter (η = 1 on both sides): plainly symmetric
+      }  // the thin sheets and the diffuse transmitter (η = 1 on both sides): plainly symmetric
       for (int k = 0; k < 3; ++k)
         ASSERT_NEAR(f1[k] / s1, f2[k] / s2, (1e-4f * std::fabs(f1[k]) + sens(k)) / s1 + 1e-6f) << c.name << " pair " << i;
       nonzero += !is_black(f1);
@@ -359,6 +386,14 @@ TEST(BsdfModels, EnergyConservation) {
     p.roughness = roughness;
     p.anisotropic = anisotropic;
     p.eta = eta;
+    return p;
+  };
+  auto white_thin = [](float spec_trans, float diff_trans) {
+    PrincipledThinBsdf p;
+    p.base_color = kWhite;
+    p.roughness = .4f;
+    p.spec_trans = spec_trans;
+    p.diff_trans = diff_trans;
     return p;
   };
   Color mirror_eta, mirror_k;
@@ -427,6 +462,8 @@ TEST(BsdfModels, EnergyConservation) {
       {"principled spec_trans 1 base 1 rough .05 η1.1", principled(white_principled(0.f, .05f, 0.f, 1.1f), 1.f), true},
       {"principled base 1 rough 1 (diffuse + retro)", principled(white_principled(0.f, 1.f)), false},
       {"principled doc example, white, spec_trans .4", luz_test::principled_doc_example(.4f), false},
+      {"principledthin diff_trans 2 base 1", Bsdf::make_principled_thin(white_thin(0.f, 2.f)), true},
+      {"principledthin spec_trans 1 base 1", Bsdf::make_principled_thin(white_thin(1.f, 0.f)), false},
       {"twosided roughconductor F=1 / roughplastic ρ=1",
        Bsdf::make_two_sided(Bsdf::make_rough_conductor(G, .2f, .2f, mirror_eta, mirror_k),
                             Bsdf::make_rough_plastic(G, .2f, kWhite)), true},
@@ -808,12 +845,58 @@ D3 eval(const PrincipledParams& q, bool has_trans, V wi, V wo, bool radiance) {
   }
   return value;
 }
+// principledthin's eval (principledthin.cpp): both directions mirrored
+// to the front (wi.z > 0), wo_r = wo reflected to wi's side.
+D3 eval_thin(const PrincipledThinBsdf& q, V wi, V wo) {
+  D3 value = {0.0, 0.0, 0.0};
+  if (wi.z == 0.0) return value;
+  if (wi.z < 0.0) wi = {-wi.x, -wi.y, -wi.z}, wo = {-wo.x, -wo.y, -wo.z};
+  const double ci = wi.z, co = wo.z, eta = q.eta, st = q.spec_trans, dt = q.diff_trans / 2.0;
+  const bool reflect = co > 0.0, refract = co < 0.0;
+  const V wor = {wo.x, wo.y, std::fabs(wo.z)};
+  const V wh = norm({wi.x + wor.x, wi.y + wor.y, wi.z + wor.z});
+  const bool refl_ok = dot(wi, wh) > 0.0 && dot(wo, wh) > 0.0, refr_ok = dot(wi, wh) > 0.0 && dot(wo, wh) < 0.0;
+  const double r2 = double(q.roughness) * q.roughness, aspect = std::sqrt(1.0 - 0.9 * q.anisotropic);
+  const double ax = std::max(0.001, r2 / aspect), ay = std::max(0.001, r2 * aspect);
+  const double rs = (0.65 * eta - 0.35) * q.roughness, rs2 = rs * rs;
+  const double sx = std::max(0.001, rs2 / aspect), sy = std::max(0.001, rs2 * aspect);
+  const double F = fresnel(dot(wi, wh), eta);
+  const double lum = 0.212671 * q.base_color.x + 0.715160 * q.base_color.y + 0.072169 * q.base_color.z;
+  for (int c = 0; c < 3; ++c) {
+    const double base = q.base_color[c], tint = lum > 0.0 ? base / lum : 1.0;
+    double v = 0.0;
+    if (st > 0.0 && reflect && refl_ok) {
+      const double r0 = std::pow((eta - 1.0) / (eta + 1.0), 2.0);
+      const double f_thin = (1.0 - q.spec_tint) * F + q.spec_tint * calc_schlick(tint * r0, dot(wi, wh), eta);
+      v += st * f_thin * ggx_d(wh, ax, ay) * smith_g1(wi, wh, ax, ay) * smith_g1(wo, wh, ax, ay) / (4.0 * ci);
+    }
+    if (st > 0.0 && refract && refr_ok)
+      v += st * base * (1.0 - F) * ggx_d(wh, sx, sy) * smith_g1(wi, wh, sx, sy) * smith_g1(wo, wh, sx, sy) / (4.0 * ci);
+    if (reflect && st < 1.0 && dt < 1.0) {
+      const double Fo = schlick_weight(std::fabs(co)), Fi = schlick_weight(ci), cos_d = dot(wh, wo);
+      const double f_diff = (1.0 - 0.5 * Fi) * (1.0 - 0.5 * Fo);
+      const double Rr = 2.0 * q.roughness * cos_d * cos_d, f_retro = Rr * (Fo + Fi + Fo * Fi * (Rr - 1.0));
+      const double Fss = (1.0 + (Rr / 2.0 - 1.0) * Fo) * (1.0 + (Rr / 2.0 - 1.0) * Fi);
+      const double f_ss = 1.25 * (Fss * (1.0 / (std::fabs(co) + ci) - 0.5) + 0.5);
+      const double mix = (f_diff + f_retro) + (f_ss - (f_diff + f_retro)) * q.flatness;
+      v += (1.0 - st) * co * base / 3.14159265358979323846 * (1.0 - dt) * mix;
+      if (q.sheen > 0.0) {
+        const double c_sheen = 1.0 + (tint - 1.0) * q.sheen_tint;
+        v += q.sheen * (1.0 - st) * schlick_weight(std::fabs(cos_d)) * c_sheen * (1.0 - dt) * std::fabs(co);
+      }
+    }
+    if (refract && st < 1.0 && dt > 0.0) v += (1.0 - st) * dt * base / 3.14159265358979323846 * std::fabs(co);
+    value[size_t(c)] = v;
+  }
+  return value;
+}
 }  // namespace principled_ref
 
 // principled.h against that reference, for random parameters (η on both
 // sides of 1, some metallic 0 or 1, spec_trans 1) and random directions on
 // the whole sphere, in both transport modes: f(v, l) |l.z| must match in
-// every channel, to 1e-4 relative plus its float conditioning.
+// every channel, to 1e-4 relative plus its float conditioning. The same for
+// principledthin.
 TEST(BsdfModels, PrincipledMatchesMitsubaFormulas) {
   uint64_t checked = 0, nonzero = 0;
   for (uint64_t i = 0; i < 40000; ++i) {
@@ -852,6 +935,33 @@ TEST(BsdfModels, PrincipledMatchesMitsubaFormulas) {
   }
   EXPECT_GT(checked, 39000u);
   EXPECT_GT(nonzero, 40000u);
+  // principledthin, on both sides (the same in both transport modes).
+  uint64_t thin_checked = 0;
+  for (uint64_t i = 0; i < 20000; ++i) {
+    auto u = [&](int k) { return chi2::rand01(73, i, k); };
+    PrincipledThinBsdf q;
+    q.base_color = {u(0), u(1), u(2)};
+    q.roughness = i % 13 == 0 ? 0.05f * u(3) : 0.1f + 0.9f * u(3);
+    q.anisotropic = i % 2 ? u(4) : 0.f;
+    q.spec_trans = i % 4 == 0 ? 0.f : (i % 4 == 1 ? 1.f : u(5));
+    q.diff_trans = i % 3 == 0 ? 0.f : 2.f * u(6);
+    q.spec_tint = u(7), q.sheen = i % 2 ? u(8) : 0.f, q.sheen_tint = u(9), q.flatness = i % 3 ? u(10) : 0.f;
+    q.eta = 1.f + 1.5f * u(11);
+    const Bsdf b = Bsdf::make_principled_thin(q);
+    const Vec3 v = square_to_uniform_sphere(chi2::rand2(73, i, 14)), l = square_to_uniform_sphere(chi2::rand2(73, i, 15));
+    if (!(std::fabs(v.z) > 1e-3f && std::fabs(l.z) > 1e-3f)) continue;
+    const principled_ref::D3 r = principled_ref::eval_thin(q, principled_ref::v3(v), principled_ref::v3(l));
+    const Color f = b.f(v, l) * std::fabs(l.z), fi = b.f(v, l, TransportMode::Importance) * std::fabs(l.z);
+    const Color fp = b.f(normalize(v + Vec3{0x1p-21f, 0x1p-21f, 0.f}), l) * std::fabs(l.z),
+                fq = b.f(v, normalize(l + Vec3{0x1p-21f, -0x1p-21f, 0.f})) * std::fabs(l.z);
+    for (int k = 0; k < 3; ++k) {
+      const double sens = 4.0 * std::max(std::fabs(fp[k] - f[k]), std::fabs(fq[k] - f[k]));
+      ASSERT_NEAR(f[k], r[size_t(k)], 1e-4 * r[size_t(k)] + sens + 1e-7) << "thin pair " << i << " channel " << k;
+      ASSERT_EQ(fi[k], f[k]) << "thin pair " << i;
+    }
+    ++thin_checked;
+  }
+  EXPECT_GT(thin_checked, 19000u);
   // Metallic 1 is the Disney (and glTF) metal: Schlick's Fresnel of the base
   // colour over isotropic GGX with separable masking, α = roughness².
   for (uint64_t i = 0; i < 2000; ++i) {

@@ -460,6 +460,7 @@ std::vector<BatchCase> batch_cases() {
       {"gltf metallic .3 rough .4", Bsdf::make_gltf_pbr({.8f, .5f, .2f}, .3f, .4f), false},
       {"gltf transmission .7 rough .3", Bsdf::make_gltf_pbr_transmission({.9f, .9f, .6f}, 0.f, .3f, .7f), true},
       {"gltf diffuse transmission .6", gltf_translucent(), true},
+      {"principledthin (documentation example)", luz_test::principledthin_doc_example(), true},
       {"diffusetransmission R .6 T .3", Bsdf::make_diffuse_transmission({.6f, .5f, .4f}, {.3f, .3f, .2f}), true},
       {"principled (documentation example)", luz_test::principled_doc_example(0.f), false},
       {"principled (documentation example, spec_trans .4)", luz_test::principled_doc_example(.4f), true},

@@ -1,6 +1,6 @@
 // The Mitsuba loader's BSDF plugins beyond diffuse/phong: conductor,
 // roughconductor, dielectric, roughdielectric, thindielectric, plastic,
-// roughplastic, blendbsdf, ward, blinnphong (Luz's own), principled, twosided around them
+// roughplastic, blendbsdf, ward, blinnphong (Luz's own), principled, principledthin, twosided around them
 // (with one nested bsdf or a front and a back one); their Mitsuba 3 parameter
 // names and defaults, the conductor presets, and the one-line errors (file
 // and line) for what is out of range or not supported. A twosided pair is
@@ -563,4 +563,72 @@ TEST_F(MitsubaBsdfs, Principled) {
   expect_error("<bsdf type=\"twosided\">\n<bsdf type=\"principled\"><float name=\"spec_trans\" value=\"0.5\"/></bsdf>"
                "</bsdf>\n",
                4, "twosided cannot wrap a material that transmits light");
+}
+
+// Mitsuba 3's principledthin: its defaults, its parameters (diff_trans in
+// [0, 2], eta a number or a texture), what the mitsuba-blender add-on
+// writes for Blender's Translucent BSDF, and the errors.
+TEST_F(MitsubaBsdfs, PrincipledThin) {
+  Bsdf d = material("<bsdf type=\"principledthin\"/>");
+  ASSERT_EQ(d.type, BsdfType::PrincipledThin);
+  EXPECT_TRUE(d.has_transmission());
+  expect_color(d.principled_thin.base_color, .5f, .5f, .5f);
+  EXPECT_FLOAT_EQ(d.principled_thin.roughness, .5f);
+  EXPECT_FLOAT_EQ(d.principled_thin.eta, 1.5f);
+  EXPECT_EQ(d.principled_thin.spec_trans + d.principled_thin.diff_trans, 0.f);
+  // The example of Mitsuba 3's documentation, and the sampling rates.
+  Bsdf e = material(
+      "<bsdf type=\"principledthin\"><rgb name=\"base_color\" value=\"0.7,0.1,0.1\"/>"
+      "<float name=\"roughness\" value=\"0.15\"/><float name=\"spec_tint\" value=\"0.1\"/>"
+      "<float name=\"anisotropic\" value=\"0.5\"/><float name=\"spec_trans\" value=\"0.8\"/>"
+      "<float name=\"diff_trans\" value=\"0.3\"/><float name=\"eta\" value=\"1.33\"/>"
+      "<float name=\"sheen\" value=\"0.2\"/><float name=\"sheen_tint\" value=\"0.4\"/><float name=\"flatness\" value=\"0.6\"/>"
+      "<float name=\"specular_reflectance_sampling_rate\" value=\"2\"/>"
+      "<float name=\"specular_transmittance_sampling_rate\" value=\"3\"/>"
+      "<float name=\"diffuse_reflectance_sampling_rate\" value=\"4\"/>"
+      "<float name=\"diffuse_transmittance_sampling_rate\" value=\"5\"/></bsdf>");
+  const luz::PrincipledThinBsdf& q = e.principled_thin;
+  expect_color(q.base_color, .7f, .1f, .1f);
+  EXPECT_FLOAT_EQ(q.roughness, .15f);
+  EXPECT_FLOAT_EQ(q.spec_tint, .1f);
+  EXPECT_FLOAT_EQ(q.anisotropic, .5f);
+  EXPECT_FLOAT_EQ(q.spec_trans, .8f);
+  EXPECT_FLOAT_EQ(q.diff_trans, .3f);
+  EXPECT_FLOAT_EQ(q.eta, 1.33f);
+  EXPECT_FLOAT_EQ(q.sheen, .2f);
+  EXPECT_FLOAT_EQ(q.sheen_tint, .4f);
+  EXPECT_FLOAT_EQ(q.flatness, .6f);
+  EXPECT_FLOAT_EQ(q.spec_rate, 2.f);
+  EXPECT_FLOAT_EQ(q.spec_trans_rate, 3.f);
+  EXPECT_FLOAT_EQ(q.diffuse_rate, 4.f);
+  EXPECT_FLOAT_EQ(q.diff_trans_rate, 5.f);
+  // Blender's Translucent BSDF as the mitsuba-blender add-on exports it.
+  EXPECT_FLOAT_EQ(material("<bsdf type=\"principledthin\"><rgb name=\"base_color\" value=\"0.2,0.6,0.4\"/>"
+                           "<float name=\"diff_trans\" value=\"2\"/></bsdf>").principled_thin.diff_trans, 2.f);
+  // eta and diff_trans as textures.
+  luz::Scene s = load(
+      "<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n<shape type=\"sphere\">\n<bsdf type=\"principledthin\">"
+      "<texture type=\"checkerboard\" name=\"eta\"><rgb name=\"color0\" value=\"1.2\"/><rgb name=\"color1\" value=\"1.6\"/></texture>"
+      "<texture type=\"checkerboard\" name=\"diff_trans\"><rgb name=\"color0\" value=\"2\"/></texture>"
+      "</bsdf>\n</shape>\n</scene>\n");
+  const luz::Material& m = s.materials[s.spheres[0].material];
+  ASSERT_EQ(m.num_bindings, 2u);
+  EXPECT_EQ(s.texture_bindings[m.first_binding].param, luz::BsdfParam::DiffuseTransmission);
+  EXPECT_EQ(s.texture_bindings[m.first_binding + 1].param, luz::BsdfParam::Eta);
+  EXPECT_FLOAT_EQ(m.bsdf.principled_thin.eta, 1.4f);  // the texture's mean
+  EXPECT_FLOAT_EQ(m.bsdf.principled_thin.diff_trans, 1.1f);
+
+  expect_error("<bsdf type=\"principledthin\"><float name=\"diff_trans\" value=\"2.5\"/></bsdf>\n", 3,
+               "principledthin 'diff_trans' must lie in [0, 2]");
+  expect_error("<bsdf type=\"principledthin\"><float name=\"eta\" value=\"20\"/></bsdf>\n", 3,
+               "principledthin 'eta' must lie in [0.1, 10]");
+  expect_error("<bsdf type=\"principledthin\"><texture type=\"checkerboard\" name=\"eta\">"
+               "<rgb name=\"color0\" value=\"0.05\"/></texture></bsdf>\n", 3,
+               "principledthin 'eta' texture's texels must lie in [0.1, 10]");
+  expect_error("<bsdf type=\"principledthin\"><float name=\"metallic\" value=\"0.5\"/></bsdf>\n", 3,
+               "unknown parameter 'metallic'");
+  expect_error("<bsdf type=\"principledthin\"><float name=\"roughness\" value=\"2\"/></bsdf>\n", 3,
+               "principledthin 'roughness' must lie in [0, 1]");
+  expect_error("<bsdf type=\"twosided\">\n<bsdf type=\"principledthin\"/></bsdf>\n", 4,
+               "twosided cannot wrap a material that transmits light");
 }

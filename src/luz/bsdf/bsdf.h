@@ -58,9 +58,10 @@ enum class BsdfType : uint32_t {
   GltfPbrTransmission,
   Principled,
   PrincipledTransmission,
-  DiffuseTransmission,  // the last: kBsdfTypeCount follows it
+  DiffuseTransmission,
+  PrincipledThin,  // the last: kBsdfTypeCount follows it
 };
-constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::DiffuseTransmission) + 1;
+constexpr uint32_t kBsdfTypeCount = uint32_t(BsdfType::PrincipledThin) + 1;
 
 // One BSDF model: a tag and the model's parameters in a union (every model
 // is a small trivially copyable struct).
@@ -87,6 +88,7 @@ struct BsdfComponent {
     PrincipledBsdf principled;
     PrincipledTransmissionBsdf principled_transmission;
     DiffuseTransmissionBsdf diffuse_transmission;
+    PrincipledThinBsdf principled_thin;
   };
 
   // The models' members have default initialisers, so the union needs a
@@ -115,6 +117,7 @@ LUZ_FORCE_INLINE decltype(auto) visit(C& c, F&& f) {
     case BsdfType::Principled: return f(c.principled);
     case BsdfType::PrincipledTransmission: return f(c.principled_transmission);
     case BsdfType::DiffuseTransmission: return f(c.diffuse_transmission);
+    case BsdfType::PrincipledThin: return f(c.principled_thin);
     default: return f(c.rough_plastic);
   }
 }
@@ -453,6 +456,13 @@ struct Bsdf : BsdfComponent {
       static_cast<PrincipledParams&>(b.principled) = p;
       b.principled.spec_trans = 0.f;
     }
+    return b;
+  }
+  // Mitsuba 3 `principledthin` (principled.h).
+  LUZ_INLINE static Bsdf make_principled_thin(const PrincipledThinBsdf& p) {
+    Bsdf b;
+    b.type = BsdfType::PrincipledThin;
+    b.principled_thin = p;
     return b;
   }
   // Mitsuba `blendbsdf`: (1 - weight) a + weight b. a and b must not be blends

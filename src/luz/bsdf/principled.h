@@ -28,6 +28,8 @@
 //   sheen       sheen (1-m) (1 - h·l)⁵ lerp(1, c_tint, sheen_tint), front only
 //               (as Mitsuba's vector variants: also where brdf = 0)
 //
+// (Mitsuba's thin variant, `principledthin`, is PrincipledThinBsdf below.)
+//
 // "Front" is v.z > 0. Without spec_trans (PrincipledBsdf) the model is
 // reflection only and black from behind (Mitsuba's `twosided` mirrors it, as
 // for every reflection model); with it (PrincipledTransmissionBsdf) the back
@@ -59,6 +61,57 @@ struct PrincipledParams {
 
   // Mitsuba 3's `specular` → η = 2 / (1 - √(0.08 specular)) - 1 (0.5 → 1.5).
   LUZ_INLINE static float specular_to_eta(float specular) { return 2.f / (1.f - sqrtf(0.08f * specular)) - 1.f; }
+
+  // What principled and principledthin share.
+  // Mitsuba's calc_dist_params: GGX of (r²/a, r² a), a = √(1 - 0.9 anisotropic), at least 0.001.
+  LUZ_INLINE static MicrofacetDistribution ggx(float rough, float aniso) {
+    const float r2 = rough * rough, a = sqrtf(max(1.f - 0.9f * aniso, 0.f));
+    return MicrofacetDistribution::make(MicrofacetType::GGX, max(0.001f, r2 / a), max(0.001f, r2 * a));
+  }
+  LUZ_INLINE MicrofacetDistribution dist() const { return ggx(roughness, anisotropic); }
+  LUZ_INLINE static float schlick_weight(float c) {
+    const float x = clamp(1.f - c, 0.f, 1.f), x2 = x * x;
+    return x2 * x2 * x;
+  }
+  // Mitsuba's calc_schlick: R0 + (1 - R0) w, w at |cos_i| where light enters
+  // the denser side (η_it > 1), else at the refracted cosine (1 on TIR).
+  LUZ_INLINE float schlick_w(float cos_i) const {
+    const float eta_it = cos_i >= 0.f ? eta : 1.f / eta;
+    if (eta_it > 1.f) return schlick_weight(fabsf(cos_i));
+    const float inv = 1.f / eta_it;
+    return schlick_weight(safe_sqrt(1.f - (1.f - cos_i * cos_i) * inv * inv));
+  }
+  // base / luminance(base) (Mitsuba's weights of linear sRGB), or 1 for a
+  // black base (Mitsuba's c_tint = 1 there).
+  LUZ_INLINE Color tint_color() const {
+    const float lum = 0.212671f * base_color.x + 0.715160f * base_color.y + 0.072169f * base_color.z;
+    return lum > 0.f ? base_color / lum : Color{1.f, 1.f, 1.f};
+  }
+  // The diffuse reflection (retro-reflection, flatness) and the sheen, for
+  // |v.z|, |l.z| and h·l, weighted wd and ws:
+  //   wd base/π · lerp(f_d + f_r, f_ss, flatness) + ws sheen (1 - h·l)⁵ lerp(1, c_tint, sheen_tint).
+  LUZ_INLINE Color diffuse_and_sheen(float vz, float lz, float hl, float wd, float ws) const {
+    Color value{};
+    const float Fl = schlick_weight(lz), Fv = schlick_weight(vz);
+    if (wd > 0.f) {
+      const float fd = (1.f - 0.5f * Fv) * (1.f - 0.5f * Fl);
+      const float R = 2.f * roughness * hl * hl, fr = R * (Fl + Fv + Fl * Fv * (R - 1.f));
+      float shape = fd + fr;
+      if (flatness != 0.f) {
+        const float ss90 = 0.5f * R;
+        const float Fss = (1.f + (ss90 - 1.f) * Fl) * (1.f + (ss90 - 1.f) * Fv);
+        const float fss = 1.25f * (Fss * (1.f / (vz + lz) - 0.5f) + 0.5f);
+        shape += (fss - shape) * flatness;
+      }
+      value = base_color * (wd * kInvPi * shape);
+    }
+    if (sheen > 0.f && ws > 0.f) {
+      const Color one{1.f, 1.f, 1.f};
+      const Color c = sheen_tint != 0.f ? one + (tint_color() - one) * sheen_tint : one;
+      value += c * (ws * sheen * schlick_weight(fabsf(hl)));
+    }
+    return value;
+  }
 };
 
 template <bool kSpecTrans>
@@ -87,30 +140,8 @@ struct PrincipledModel : PrincipledParams {
   LUZ_INLINE float brdf_weight() const { return (1.f - metal()) * (1.f - trans()); }
   LUZ_INLINE float bsdf_weight() const { return (1.f - metal()) * trans(); }
 
-  LUZ_INLINE MicrofacetDistribution dist() const {
-    const float r2 = roughness * roughness, a = sqrtf(max(1.f - 0.9f * anisotropic, 0.f));
-    return MicrofacetDistribution::make(MicrofacetType::GGX, max(0.001f, r2 / a), max(0.001f, r2 * a));
-  }
   LUZ_INLINE float coat_alpha() const { return 0.1f + (0.001f - 0.1f) * clearcoat_gloss; }
 
-  LUZ_INLINE static float schlick_weight(float c) {
-    const float x = clamp(1.f - c, 0.f, 1.f), x2 = x * x;
-    return x2 * x2 * x;
-  }
-  // Mitsuba's calc_schlick: R0 + (1 - R0) w, w at |cos_i| where light enters
-  // the denser side (η_it > 1), else at the refracted cosine (1 on TIR).
-  LUZ_INLINE float schlick_w(float cos_i) const {
-    const float eta_it = cos_i >= 0.f ? eta : 1.f / eta;
-    if (eta_it > 1.f) return schlick_weight(fabsf(cos_i));
-    const float inv = 1.f / eta_it;
-    return schlick_weight(safe_sqrt(1.f - (1.f - cos_i * cos_i) * inv * inv));
-  }
-  // base / luminance(base) (Mitsuba's weights of linear sRGB), or 1 for a
-  // black base (Mitsuba's c_tint = 1 there).
-  LUZ_INLINE Color tint_color() const {
-    const float lum = 0.212671f * base_color.x + 0.715160f * base_color.y + 0.072169f * base_color.z;
-    return lum > 0.f ? base_color / lum : Color{1.f, 1.f, 1.f};
-  }
   // F_p on the front, at v·h = cos_i (> 0 there).
   LUZ_INLINE Color front_fresnel(float F, float cos_i) const {
     const float m = metal(), w = schlick_w(cos_i), tint = spec_tint;
@@ -198,28 +229,8 @@ struct PrincipledModel : PrincipledParams {
                  (0.25f * clearcoat * Fc * gtr1(p.h, coat_alpha()) * c.G1(v, p.h) * c.G1(l, p.h));
       }
     }
-    if (p.reflect && p.front) {
-      const float hl = dot(p.h, l), Fl = schlick_weight(lz), Fv = schlick_weight(vz);
-      const float brdf = brdf_weight();
-      if (brdf > 0.f) {
-        const float fd = (1.f - 0.5f * Fv) * (1.f - 0.5f * Fl);
-        const float R = 2.f * roughness * hl * hl, fr = R * (Fl + Fv + Fl * Fv * (R - 1.f));
-        float shape = fd + fr;
-        if (flatness != 0.f) {
-          const float ss90 = 0.5f * R;
-          const float Fss = (1.f + (ss90 - 1.f) * Fl) * (1.f + (ss90 - 1.f) * Fv);
-          const float fss = 1.25f * (Fss * (1.f / (vz + lz) - 0.5f) + 0.5f);
-          shape += (fss - shape) * flatness;
-        }
-        value += base_color * (brdf * kInvPi * shape);
-      }
-      const float m = metal();
-      if (sheen > 0.f && m < 1.f) {
-        const Color one{1.f, 1.f, 1.f};
-        const Color c = sheen_tint != 0.f ? one + (tint_color() - one) * sheen_tint : one;
-        value += c * (sheen * (1.f - m) * schlick_weight(fabsf(hl)));
-      }
-    }
+    // The diffuse part weighs brdf, the sheen 1 - metallic (also where brdf = 0).
+    if (p.reflect && p.front) value += diffuse_and_sheen(vz, lz, dot(p.h, l), brdf_weight(), 1.f - metal());
     return value;
   }
 
@@ -298,5 +309,149 @@ struct PrincipledModel : PrincipledParams {
 
 using PrincipledBsdf = PrincipledModel<false>;
 using PrincipledTransmissionBsdf = PrincipledModel<true>;
+
+// Mitsuba 3's `principledthin` (src/bsdfs/principledthin.cpp): a thin sheet
+// (leaves, paper, cloth, soap film), the same from both sides (Mitsuba
+// mirrors wo and wi to the front: wo.z > 0 below), no metal, no coat. With
+// s = spec_trans, d = diff_trans / 2 (Mitsuba's diff_trans lies in [0, 2]),
+// h = normalize(wo + w̄i), w̄i = wi mirrored to wo's side, and f without the
+// cosine:
+//   reflection     s F_thin D G / (4 |wo.z| |wi.z|)   (only where s > 0)
+//                  F_thin = (1 - tint) F + tint S(c_tint R0(η)), F the exact
+//                  dielectric Fresnel at wo·h and η (`eta`, a texture too)
+//   transmission   s base (1 - F) D_t G_t / (4 |wo.z| |wi.z|) across, D_t, G_t
+//                  of the roughness scaled by 0.65 η - 0.35 (Burley 2015, Fig. 15)
+//                  at the mirrored direction (no refraction of the ray)
+//   diffuse        (1 - s)(1 - d) (base/π · lerp(f_d + f_r, f_ss, flatness) + sheen),
+//                  principled's terms (above)
+//   diffuse transmission  (1 - s) d base / π across.
+// Sampling, as Mitsuba: the four lobes with weights s·rate/2, s·rate/2,
+// (1 - s)(1 - d)·rate, (1 - s) d·rate (the four sampling rates).
+// Reciprocal on each side. Across, Mitsuba masks the specular transmission
+// by the facet as the transmitted direction itself sees it (wi·h < 0, with
+// G1(wi, h)): near grazing that passes one way only, so f(wo, wi) and
+// f(wi, wo) differ there (a fifth of the transmitted energy at roughness 1);
+// Luz keeps Mitsuba's mask, for Mitsuba's image.
+struct PrincipledThinBsdf : PrincipledParams {
+  static constexpr bool kDeltaOnly = false, kHasDelta = false, kTransmission = true;
+  // The members textures can drive (material.h).
+  LUZ_INLINE Color* color_param(BsdfParam p) { return p == BsdfParam::BaseColor ? &base_color : nullptr; }
+  LUZ_INLINE float* float_param(BsdfParam p) {
+    switch (p) {
+      case BsdfParam::Roughness: return &roughness;
+      case BsdfParam::Anisotropic: return &anisotropic;
+      case BsdfParam::Transmission: return &spec_trans;
+      case BsdfParam::SpecularTint: return &spec_tint;
+      case BsdfParam::Sheen: return &sheen;
+      case BsdfParam::SheenTint: return &sheen_tint;
+      case BsdfParam::Flatness: return &flatness;
+      case BsdfParam::Eta: return &eta;
+      case BsdfParam::DiffuseTransmission: return &diff_trans;
+      default: return nullptr;
+    }
+  }
+  float diff_trans = 0.f;  // Mitsuba's, in [0, 2]
+  // Sampling weights beside spec_rate (specular reflection) and diffuse_rate.
+  float spec_trans_rate = 1.f, diff_trans_rate = 1.f;
+
+  LUZ_INLINE float st() const { return clamp(spec_trans, 0.f, 1.f); }
+  LUZ_INLINE float dt() const { return clamp(0.5f * diff_trans, 0.f, 1.f); }
+  LUZ_INLINE MicrofacetDistribution trans_dist() const { return ggx((0.65f * eta - 0.35f) * roughness, anisotropic); }
+
+  // wo brought to the front, wi with it (the sheet is symmetric).
+  LUZ_INLINE static bool front(Vec3& v, Vec3& l) {
+    if (v.z < 0.f) v = -v, l = -l;
+    return v.z > 0.f && l.z != 0.f;
+  }
+  // Lobe probabilities: specular reflection, specular transmission, diffuse
+  // reflection, diffuse transmission.
+  LUZ_INLINE void lobes(float& psr, float& pst, float& pdr, float& pdt) const {
+    const float s = st(), d = dt();
+    psr = s * spec_rate * 0.5f;
+    pst = s * spec_trans_rate * 0.5f;
+    pdr = diffuse_rate * (1.f - s) * (1.f - d);
+    pdt = diff_trans_rate * (1.f - s) * d;
+    const float total = psr + pst + pdr + pdt;
+    const float inv = total > 0.f ? 1.f / total : 0.f;
+    psr *= inv, pst *= inv, pdr *= inv, pdt *= inv;
+  }
+
+  LUZ_INLINE Color f(Vec3 v, Vec3 l, TransportMode = TransportMode::Radiance) const {
+    if (!front(v, l)) return {};
+    const bool reflect = l.z > 0.f;
+    const Vec3 lr{l.x, l.y, fabsf(l.z)};
+    const Vec3 h = normalize(v + lr);
+    const float s = st(), d = dt(), vz = v.z, lz = fabsf(l.z), vh = dot(v, h), lh = dot(l, h);
+    Color value{};
+    if (s > 0.f && vh > 0.f) {
+      const float F = fresnel_dielectric(vh, eta).F;
+      if (reflect && lh > 0.f) {
+        const MicrofacetDistribution m = dist();
+        const float DG = m.D(h) * m.G1(v, h) * m.G1(l, h) / (4.f * vz * lz);
+        const Color one{1.f, 1.f, 1.f};
+        Color Ft = one * ((1.f - spec_tint) * F);
+        if (spec_tint != 0.f) {
+          const float r = (eta - 1.f) / (eta + 1.f), w = schlick_w(vh);
+          const Color tinted = tint_color() * (r * r);
+          Ft += (tinted + (one - tinted) * w) * spec_tint;
+        }
+        value += Ft * (s * DG);
+      }
+      if (!reflect && lh < 0.f) {
+        const MicrofacetDistribution m = trans_dist();
+        value += base_color * (s * (1.f - F) * m.D(h) * m.G1(v, h) * m.G1(l, h) / (4.f * vz * lz));
+      }
+    }
+    if (reflect && s < 1.f && d < 1.f) value += diffuse_and_sheen(vz, lz, lh, (1.f - s) * (1.f - d), (1.f - s) * (1.f - d));
+    if (!reflect && s < 1.f && d > 0.f) value += base_color * ((1.f - s) * d * kInvPi);
+    return value;
+  }
+
+  LUZ_INLINE float pdf(Vec3 v, Vec3 l) const {
+    if (!front(v, l)) return 0.f;
+    float psr, pst, pdr, pdt;
+    lobes(psr, pst, pdr, pdt);
+    const bool reflect = l.z > 0.f;
+    float pdf = (reflect ? pdr : pdt) * fabsf(l.z) * kInvPi;
+    if (psr + pst > 0.f) {
+      const Vec3 lr{l.x, l.y, fabsf(l.z)};
+      const Vec3 h = normalize(v + lr);
+      const float lh = dot(l, h), dwh = 1.f / (4.f * fabsf(dot(lr, h)));
+      if (dot(v, h) > 0.f && (reflect ? lh > 0.f : lh < 0.f))
+        pdf += (reflect ? psr * dist().pdf_visible(v, h) : pst * trans_dist().pdf_visible(v, h)) * dwh;
+    }
+    return pdf;
+  }
+
+  LUZ_INLINE BsdfSample sample(Vec3 wo, float u1, Vec2 u2, TransportMode mode = TransportMode::Radiance) const {
+    BsdfSample s;
+    if (wo.z == 0.f || !(wo.z == wo.z)) return s;
+    const float side = wo.z > 0.f ? 1.f : -1.f;
+    const Vec3 v = wo * side;
+    float psr, pst, pdr, pdt;
+    lobes(psr, pst, pdr, pdt);
+    Vec3 l;
+    if (u1 < psr + pst) {
+      const Vec3 m = (u1 < psr ? dist() : trans_dist()).sample_visible_ggx(v, u2);
+      if (!(dot(v, m) > 0.f)) return s;
+      l = reflect(v, m);
+      if (!(l.z > 0.f)) return s;
+      if (u1 >= psr) {  // through the sheet, unbent, where the facet faces away from it
+        l.z = -l.z;
+        if (!(dot(l, m) < 0.f)) return s;
+      }
+    } else {
+      l = square_to_cosine_hemisphere(u2);
+      if (u1 >= psr + pst + pdr && pdt > 0.f) l = -l;
+    }
+    s.wi = l * side;
+    s.pdf = pdf(wo, s.wi);
+    if (!(s.pdf > 0.f)) return BsdfSample{};
+    s.weight = f(wo, s.wi, mode) * (fabsf(s.wi.z) / s.pdf);
+    s.transmission = s.wi.z * wo.z < 0.f;
+    s.valid = true;
+    return s;
+  }
+};
 
 }  // namespace luz

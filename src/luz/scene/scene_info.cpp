@@ -40,6 +40,7 @@ const char* bsdf_name(BsdfType t) {
     case BsdfType::Principled: return "principled";
     case BsdfType::PrincipledTransmission: return "principled (spec_trans)";
     case BsdfType::DiffuseTransmission: return "diffusetransmission";
+    case BsdfType::PrincipledThin: return "principledthin";
   }
   return "?";
 }

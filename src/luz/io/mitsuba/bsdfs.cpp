@@ -1,4 +1,5 @@
 // The Mitsuba reader's bsdfs: every model, its parameters and the adapters (twosided, blendbsdf, mask, normalmap, bumpmap) (see parser.h).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -314,44 +315,80 @@ ParsedBsdf MitsubaParser::parse_bsdf_element(pugi::xml_node n) {
     Color ks = reflectance("specular_reflectance", {0.2f, 0.2f, 0.2f}, BsdfParam::SpecularReflectance);
     check_sum(kd, ks);
     b = Bsdf::make_ward(variant, kd, ks, au, av, false);
-  } else if (type == "principled") {
-    b = principled(n, p, tb);
+  } else if (type == "principled" || type == "principledthin") {
+    b = principled(n, p, tb, type == "principledthin");
   } else {
     error(n, "unknown bsdf '" + type +
                  "' (supported: diffuse, phong, blinnphong, conductor, roughconductor, dielectric, "
-                 "roughdielectric, thindielectric, plastic, roughplastic, ward, principled, blendbsdf, twosided, "
-                 "mask, normalmap, bumpmap)");
+                 "roughdielectric, thindielectric, plastic, roughplastic, ward, principled, principledthin, blendbsdf, "
+                 "twosided, mask, normalmap, bumpmap)");
   }
   p.check_all_used();
   return out;
 }
 
-// Mitsuba 3's principled (principled.h): every parameter but eta, specular
-// and the sampling rates a number or a texture, in [0, 1] as Mitsuba 3's
-// documentation asks. spec_trans given as a texture or a non-zero number
+// Mitsuba 3's principled and principledthin (principled.h): every parameter
+// but eta, specular and the sampling rates a number or a texture, in [0, 1]
+// as Mitsuba 3's documentation asks (principledthin's diff_trans in
+// [0, 2]). principled: spec_trans given as a texture or a non-zero number
 // makes the material transmissive (Mitsuba's m_has_spec_trans), and then an
 // eta of 1 becomes 1.001 and a specular of 0 becomes 1e-3, as there.
-// Sampling rates of 0 become 0.01: Mitsuba 3 would leave the main lobe's
-// refraction unsampled (light through the surface lost), or divide by 0.
-Bsdf MitsubaParser::principled(pugi::xml_node n, Props& p, std::vector<TextureBinding>& tb) {
+// principledthin: eta a number or a texture. Sampling rates of 0 become
+// 0.01: Mitsuba 3 would leave a lobe unsampled (principled's refraction:
+// light through the surface lost), or divide by 0.
+Bsdf MitsubaParser::principled(pugi::xml_node n, Props& p, std::vector<TextureBinding>& tb, bool thin) {
+  const char* plugin = thin ? "principledthin" : "principled";
   auto unit = [&](const char* name, float def, BsdfParam param, bool* given = nullptr) {
     int32_t t = -1;
-    const float v = unit_param(n, p, "principled", name, def, t);
+    const float v = unit_param(n, p, plugin, name, def, t);
     if (t >= 0) tb.push_back({t, BsdfPart::Front, param});
     if (given) *given = t >= 0 || v != 0.f;
     return v;
   };
-  PrincipledParams q;
+  // Sampling weights: they change the noise, not the image.
+  auto rate = [&](const char* name, float& r) {
+    const double v = p.get_float(name, 1.0);
+    if (!(v >= 0.0 && v < 1e6)) error(n, std::string(plugin) + " '" + name + "' must be a finite number ≥ 0");
+    r = v > 0.0 ? float(v) : 1e-2f;
+    if (v == 0.0) builder_.warn(loc(n), std::string(plugin) + " '" + name + "' 0: the lobe is still sampled, at weight 0.01");
+  };
+  // A float parameter in [lo, hi]: a number, or a texture bound to `param`.
+  auto ranged = [&](const char* name, float def, float lo, float hi, BsdfParam param) {
+    const int32_t t = texture_param(p, name);
+    const std::string what = std::string(plugin) + " '" + name + "'";
+    char range[48];
+    std::snprintf(range, sizeof range, " must lie in [%g, %g]", double(lo), double(hi));
+    if (t < 0) {
+      const float v = float(p.get_float(name, def));
+      if (!(v >= lo && v <= hi)) error(n, what + range);
+      return v;
+    }
+    const TextureStats& st = builder_.texture_stats(t);
+    if (!(std::min({st.min.x, st.min.y, st.min.z}) >= lo && max_component(st.max) <= hi))
+      error(n, what + " texture's texels" + range);
+    tb.push_back({t, BsdfPart::Front, param});
+    return luminance(st.mean);
+  };
+  PrincipledThinBsdf q;
   q.base_color = color_param(n, p, "base_color", {.5f, .5f, .5f}, BsdfParam::BaseColor, true, tb);
   q.roughness = unit("roughness", .5f, BsdfParam::Roughness);
   q.anisotropic = unit("anisotropic", 0.f, BsdfParam::Anisotropic);
-  q.metallic = unit("metallic", 0.f, BsdfParam::Metallic);
   bool transmits = false;
   q.spec_trans = unit("spec_trans", 0.f, BsdfParam::Transmission, &transmits);
   q.spec_tint = unit("spec_tint", 0.f, BsdfParam::SpecularTint);
   q.sheen = unit("sheen", 0.f, BsdfParam::Sheen);
   q.sheen_tint = unit("sheen_tint", 0.f, BsdfParam::SheenTint);
   q.flatness = unit("flatness", 0.f, BsdfParam::Flatness);
+  if (thin) {
+    q.diff_trans = ranged("diff_trans", 0.f, 0.f, 2.f, BsdfParam::DiffuseTransmission);
+    q.eta = ranged("eta", 1.5f, 0.1f, 10.f, BsdfParam::Eta);
+    rate("specular_reflectance_sampling_rate", q.spec_rate);
+    rate("specular_transmittance_sampling_rate", q.spec_trans_rate);
+    rate("diffuse_reflectance_sampling_rate", q.diffuse_rate);
+    rate("diffuse_transmittance_sampling_rate", q.diff_trans_rate);
+    return Bsdf::make_principled_thin(q);
+  }
+  q.metallic = unit("metallic", 0.f, BsdfParam::Metallic);
   q.clearcoat = unit("clearcoat", 0.f, BsdfParam::Clearcoat);
   q.clearcoat_gloss = unit("clearcoat_gloss", 0.f, BsdfParam::ClearcoatGloss);
   if (p.has("eta") && p.has("specular")) error(n, "principled takes either 'eta' or 'specular', not both");
@@ -368,14 +405,6 @@ Bsdf MitsubaParser::principled(pugi::xml_node n, Props& p, std::vector<TextureBi
     if (transmits && specular == 0.f) specular = 1e-3f;
     q.eta = PrincipledParams::specular_to_eta(specular);
   }
-  // Sampling weights: they change the noise, not the image; a weight of 0 is
-  // sampled a little all the same (above).
-  auto rate = [&](const char* name, float& r) {
-    const double v = p.get_float(name, 1.0);
-    if (!(v >= 0.0 && v < 1e6)) error(n, std::string("principled '") + name + "' must be a finite number ≥ 0");
-    r = v > 0.0 ? float(v) : 1e-2f;
-    if (v == 0.0) builder_.warn(loc(n), std::string("principled '") + name + "' 0: the lobe is still sampled, at weight 0.01");
-  };
   rate("main_specular_sampling_rate", q.spec_rate);
   rate("clearcoat_sampling_rate", q.clearcoat_rate);
   rate("diffuse_reflectance_sampling_rate", q.diffuse_rate);

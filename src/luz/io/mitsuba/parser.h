@@ -14,8 +14,8 @@
 // serialized, rectangle, cube, disk, cylinder, sphere, shapegroup, instance;
 // emitters area, constant, envmap, point, spot, directional; bsdfs diffuse,
 // phong, blinnphong, conductor, roughconductor, dielectric, roughdielectric,
-// thindielectric, plastic, roughplastic, ward, principled, coating, blendbsdf,
-// twosided, mask, normalmap, bumpmap; textures bitmap and checkerboard; <ref> to
+// thindielectric, plastic, roughplastic, ward, principled, principledthin,
+// coating, blendbsdf, twosided, mask, normalmap, bumpmap; textures bitmap and checkerboard; <ref> to
 // bsdfs, textures and shapegroups. Anything else is an error naming file and
 // line: a renderer that silently ignores what it does not know renders the
 // wrong image.
@@ -142,7 +142,8 @@ class MitsubaParser {
   static void move_part(std::vector<TextureBinding>& b, BsdfPart from, BsdfPart to);
   ParsedBsdf parse_bsdf_element(pugi::xml_node n);
   ParsedBsdf parse_coating(pugi::xml_node n);
-  Bsdf principled(pugi::xml_node n, Props& p, std::vector<TextureBinding>& tb);
+  // Mitsuba 3's principled, or principledthin where `thin`.
+  Bsdf principled(pugi::xml_node n, Props& p, std::vector<TextureBinding>& tb, bool thin);
   // A bsdf element as a value; one with an id becomes a material that <ref>s
   // name, nested ones too (as in Mitsuba, where the staircase's bumpmap
   // wraps the bsdf its shapes refer to).
