@@ -17,6 +17,7 @@
 #include "luz/bsdf/fresnel.h"
 #include "luz/device/cpu/render.h"
 #include "luz/io/error.h"
+#include "luz/io/image.h"
 #include "luz/io/load.h"
 #include "stat_helpers.h"
 
@@ -536,6 +537,26 @@ TEST_F(MitsubaBsdfs, Principled) {
                                    luz::BsdfParam::ClearcoatGloss};
   for (uint32_t k = 0; k < 4; ++k) EXPECT_EQ(s.texture_bindings[m.first_binding + k].param, expect[k]) << k;
   EXPECT_FLOAT_EQ(m.bsdf.principled_transmission.roughness, 0.5f);  // the mean of 0.8 and color1 0.2
+
+  // A float texture straying above 1 (an EXR roughness map) is clamped
+  // where looked up, with a warning; a constant outside [0, 1] is an error.
+  luz::Image rough;
+  rough.width = rough.height = 2;
+  rough.rgb = {1.25f, 1.25f, 1.25f, .5f, .5f, .5f, .5f, .5f, .5f, .2f, .2f, .2f};
+  luz::write_image((dir / "rough.pfm").string(), rough);
+  luz::Scene c = load("<scene version=\"3.0.0\">\n<sensor type=\"perspective\"/>\n<shape type=\"sphere\">\n"
+                      "<bsdf type=\"principled\"><texture type=\"bitmap\" name=\"roughness\">"
+                      "<string name=\"filename\" value=\"rough.pfm\"/></texture></bsdf>\n</shape>\n</scene>\n");
+  ASSERT_EQ(c.warnings.size(), 1u);
+  EXPECT_NE(c.warnings[0].find("principled 'roughness' texture has texels outside [0, 1]: clamped"), std::string::npos)
+      << c.warnings[0];
+  const luz::Material& cm = c.materials[c.spheres[0].material];
+  ASSERT_EQ(cm.num_bindings, 1u);
+  EXPECT_EQ(c.texture_bindings[cm.first_binding].map, luz::TextureMap::Clamp01);
+  const luz::SceneView cv = c.view();
+  EXPECT_FLOAT_EQ(cv.materials.bsdf(0, cv.textures, {0.25f, 0.25f}).principled.roughness, 1.f);   // 1.25, clamped
+  EXPECT_FLOAT_EQ(cv.materials.bsdf(0, cv.textures, {0.25f, 0.75f}).principled.roughness, .5f);
+  EXPECT_FLOAT_EQ(cv.materials.bsdf(0, cv.textures, {0.75f, 0.75f}).principled.roughness, .2f);
 
   // A sampling rate of 0 still samples its lobe, with a warning.
   luz::Scene w = load(scene("<bsdf type=\"principled\"><float name=\"clearcoat_sampling_rate\" value=\"0\"/></bsdf>\n"));

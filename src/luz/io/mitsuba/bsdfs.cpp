@@ -330,7 +330,8 @@ ParsedBsdf MitsubaParser::parse_bsdf_element(pugi::xml_node n) {
 // Mitsuba 3's principled and principledthin (principled.h): every parameter
 // but eta, specular and the sampling rates a number or a texture, in [0, 1]
 // as Mitsuba 3's documentation asks (principledthin's diff_trans in
-// [0, 2]). principled: spec_trans given as a texture or a non-zero number
+// [0, 2]); a float texture straying outside [0, 1] is clamped there, with
+// a warning (Mitsuba uses such texels as they are). principled: spec_trans given as a texture or a non-zero number
 // makes the material transmissive (Mitsuba's m_has_spec_trans), and then an
 // eta of 1 becomes 1.001 and a specular of 0 becomes 1e-3, as there.
 // principledthin: eta a number or a texture. Sampling rates of 0 become
@@ -338,12 +339,25 @@ ParsedBsdf MitsubaParser::parse_bsdf_element(pugi::xml_node n) {
 // light through the surface lost), or divide by 0.
 Bsdf MitsubaParser::principled(pugi::xml_node n, Props& p, std::vector<TextureBinding>& tb, bool thin) {
   const char* plugin = thin ? "principledthin" : "principled";
+  // A float parameter in [0, 1]: a number (outside it: an error), or a
+  // texture bound to `param`, whose texels are clamped to [0, 1] where they
+  // stray (float images of roughness or metal, a warning says so).
   auto unit = [&](const char* name, float def, BsdfParam param, bool* given = nullptr) {
-    int32_t t = -1;
-    const float v = unit_param(n, p, plugin, name, def, t);
-    if (t >= 0) tb.push_back({t, BsdfPart::Front, param});
-    if (given) *given = t >= 0 || v != 0.f;
-    return v;
+    const int32_t t = texture_param(p, name);
+    if (given) *given = t >= 0;
+    if (t < 0) {
+      const float v = float(p.get_float(name, def));
+      if (!(v >= 0.f && v <= 1.f)) error(n, std::string(plugin) + " '" + name + "' must lie in [0, 1]");
+      if (given) *given = v != 0.f;
+      return v;
+    }
+    const TextureStats& st = builder_.texture_stats(t);
+    const bool outside = std::min({st.min.x, st.min.y, st.min.z}) < 0.f || max_component(st.max) > 1.f;
+    if (outside)
+      builder_.warn(loc(n), std::string(plugin) + " '" + name +
+                                "' texture has texels outside [0, 1]: clamped to [0, 1] where looked up");
+    tb.push_back({t, BsdfPart::Front, param, outside ? TextureMap::Clamp01 : TextureMap::Identity});
+    return std::clamp(luminance(st.mean), 0.f, 1.f);
   };
   // Sampling weights: they change the noise, not the image.
   auto rate = [&](const char* name, float& r) {
