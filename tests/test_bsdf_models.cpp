@@ -68,6 +68,7 @@ std::vector<Case> build_models() {
   v.push_back({"roughdielectric ggx .05 η1.5", Bsdf::make_rough_dielectric(G, .05f, .05f, 1.5f, 1.f), .1f});
   v.push_back({"roughdielectric beckmann .3 η1.5", Bsdf::make_rough_dielectric(B, .3f, .3f, 1.5f, 1.f), 1.f});
   v.push_back({"roughdielectric ggx (.1,.3) water", Bsdf::make_rough_dielectric(G, .1f, .3f, 1.333f, 1.000277f), 1.f});
+  v.push_back({"roughdielectric ggx .2 air in water (η<1)", Bsdf::make_rough_dielectric(G, .2f, .2f, 1.f, 1.333f), 1.f});
   v.push_back({"plastic ρ=.5", Bsdf::make_smooth_plastic({.5f, .5f, .5f}), 1.f});
   v.push_back({"plastic rgb ρ=(.8,.3,.1)", Bsdf::make_smooth_plastic({.8f, .3f, .1f}, kWhite, 1.5f), 1.f});
   v.push_back({"blinnphong kd .3 ks .7 n 20", Bsdf::make_blinn_phong({.3f, .3f, .3f}, {.7f, .7f, .7f}, 20.f), 1.f});

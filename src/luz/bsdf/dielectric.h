@@ -155,11 +155,12 @@ struct RoughDielectricBsdf {
   }
 
   // F at the facet m. For a refraction pair the two sides give the same F;
-  // it is taken from the outside cosine, which is well conditioned (from
-  // inside near the critical angle cos θt is the root of a cancellation),
-  // so f(wo, wi) and f(wi, wo) agree in float too.
+  // it is taken from the cosine on the less dense side (the outside where
+  // η > 1), which is well conditioned (from the denser side near the
+  // critical angle cos θt is the root of a cancellation), so f(wo, wi) and
+  // f(wi, wo) agree in float too.
   LUZ_INLINE float fresnel(Vec3 wo, float wom, float wim, bool reflect) const {
-    if (reflect || wo.z > 0.f) return fresnel_dielectric(wom, eta).F;
+    if (reflect || (eta >= 1.f) == (wo.z > 0.f)) return fresnel_dielectric(wom, eta).F;
     return fresnel_dielectric(wim, eta).F;
   }
 
