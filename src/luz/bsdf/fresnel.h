@@ -15,6 +15,9 @@
 //      F = (Rs + Rp) / 2.
 //  - fresnel_diffuse_reflectance: hemispherical average 2∫ F(μ) μ dμ, by
 //    quadrature (host-side, once per material).
+//  - schlick_weight: Schlick's (1 - cos θ)⁵, the weight of F90 in his
+//    approximation F = F0 + (F90 - F0)(1 - cos θ)⁵ (glTF's and the Disney
+//    models' Fresnel).
 //
 // Presets (names as Mitsuba's): dielectric IORs from Mitsuba's table (its
 // documentation of the `dielectric` plugin); conductor (η, k) as RGB.
@@ -23,6 +26,11 @@
 #include "luz/math/vec.h"
 
 namespace luz {
+
+LUZ_INLINE float schlick_weight(float cos_theta) {
+  const float x = clamp(1.f - cos_theta, 0.f, 1.f), x2 = x * x;
+  return x2 * x2 * x;
+}
 
 // Result of the dielectric Fresnel equations for cos θi = cos_i (signed: < 0
 // means the incident direction is inside, below the surface) and eta =

@@ -65,6 +65,7 @@
 #pragma once
 
 #include "luz/bsdf/common.h"
+#include "luz/bsdf/fresnel.h"
 #include "luz/bsdf/microfacet.h"
 #include "luz/sampling/warp.h"
 
@@ -96,10 +97,6 @@ struct GltfPbrBsdf {
   LUZ_INLINE static float ior_to_f0(float ior) {
     float r = (ior - 1.f) / (ior + 1.f);
     return r * r;
-  }
-  LUZ_INLINE static float schlick_weight(float c) {
-    float x = 1.f - clamp(c, 0.f, 1.f), x2 = x * x;
-    return x2 * x2 * x;
   }
   LUZ_INLINE float metal() const { return clamp(metallic, 0.f, 1.f); }
   // The dielectric's Fresnel F = F0 + (F90 - F0) w at Schlick weight w.
@@ -223,7 +220,7 @@ struct GltfPbrTransmissionBsdf {
     const Vec3 wm = mirror(wi);
     const Vec3 h = normalize(wo + wm);
     const float spec = t > 0.f ? surface.specular(wo, wm, h) : 0.f;
-    const float fd = max_component(surface.dielectric_fresnel(GltfPbrBsdf::schlick_weight(fabsf(dot(wo, h)))));
+    const float fd = max_component(surface.dielectric_fresnel(schlick_weight(fabsf(dot(wo, h)))));
     const float w = (1.f - surface.metal()) * (1.f - fd);
     Color v = surface.base_color * (w * t * spec);
     if (d > 0.f) v += diffuse_transmission_color * (w * (1.f - t) * d * kInvPi);

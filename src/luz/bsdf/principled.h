@@ -59,7 +59,7 @@ struct PrincipledParams {
   float eta = 1.5f;  // interior / exterior
   float spec_rate = 1.f, clearcoat_rate = 1.f, diffuse_rate = 1.f;  // sampling weights (positive)
 
-  // Mitsuba 3's `specular` → η = 2 / (1 - √(0.08 specular)) - 1 (0.5 → 1.5).
+  // η from Mitsuba 3's `specular`: 2 / (1 - √(0.08 specular)) - 1 (1.5 at the default 0.5).
   LUZ_INLINE static float specular_to_eta(float specular) { return 2.f / (1.f - sqrtf(0.08f * specular)) - 1.f; }
 
   // What principled and principledthin share.
@@ -69,10 +69,6 @@ struct PrincipledParams {
     return MicrofacetDistribution::make(MicrofacetType::GGX, max(0.001f, r2 / a), max(0.001f, r2 * a));
   }
   LUZ_INLINE MicrofacetDistribution dist() const { return ggx(roughness, anisotropic); }
-  LUZ_INLINE static float schlick_weight(float c) {
-    const float x = clamp(1.f - c, 0.f, 1.f), x2 = x * x;
-    return x2 * x2 * x;
-  }
   // Mitsuba's calc_schlick: R0 + (1 - R0) w, w at |cos_i| where light enters
   // the denser side (η_it > 1), else at the refracted cosine (1 on TIR).
   LUZ_INLINE float schlick_w(float cos_i) const {
@@ -86,6 +82,13 @@ struct PrincipledParams {
   LUZ_INLINE Color tint_color() const {
     const float lum = 0.212671f * base_color.x + 0.715160f * base_color.y + 0.072169f * base_color.z;
     return lum > 0.f ? base_color / lum : Color{1.f, 1.f, 1.f};
+  }
+  // The spec_tint part of both Fresnel terms: Schlick's of R0 = c_tint
+  // R0(η_it) at cos_i, its weight w = schlick_w(cos_i) given.
+  LUZ_INLINE Color tinted_schlick(float cos_i, float w) const {
+    const float eta_it = cos_i >= 0.f ? eta : 1.f / eta, r = (eta_it - 1.f) / (eta_it + 1.f);
+    const Color tinted = tint_color() * (r * r);
+    return tinted + (Color{1.f, 1.f, 1.f} - tinted) * w;
   }
   // The diffuse reflection (retro-reflection, flatness) and the sheen, for
   // |v.z|, |l.z| and h·l, weighted wd and ws:
@@ -147,11 +150,7 @@ struct PrincipledModel : PrincipledParams {
     const float m = metal(), w = schlick_w(cos_i), tint = spec_tint;
     const Color one{1.f, 1.f, 1.f};
     Color Fp = one * ((1.f - m) * (1.f - tint) * F) + (base_color + (one - base_color) * w) * m;
-    if (tint != 0.f) {
-      const float eta_it = cos_i >= 0.f ? eta : 1.f / eta, r = (eta_it - 1.f) / (eta_it + 1.f);
-      const Color tinted = tint_color() * (r * r);
-      Fp += (tinted + (one - tinted) * w) * ((1.f - m) * tint);
-    }
+    if (tint != 0.f) Fp += tinted_schlick(cos_i, w) * ((1.f - m) * tint);
     return Fp;
   }
 
@@ -388,13 +387,8 @@ struct PrincipledThinBsdf : PrincipledParams {
       if (reflect && lh > 0.f) {
         const MicrofacetDistribution m = dist();
         const float DG = m.D(h) * m.G1(v, h) * m.G1(l, h) / (4.f * vz * lz);
-        const Color one{1.f, 1.f, 1.f};
-        Color Ft = one * ((1.f - spec_tint) * F);
-        if (spec_tint != 0.f) {
-          const float r = (eta - 1.f) / (eta + 1.f), w = schlick_w(vh);
-          const Color tinted = tint_color() * (r * r);
-          Ft += (tinted + (one - tinted) * w) * spec_tint;
-        }
+        Color Ft = Color{1.f, 1.f, 1.f} * ((1.f - spec_tint) * F);
+        if (spec_tint != 0.f) Ft += tinted_schlick(vh, schlick_w(vh)) * spec_tint;
         value += Ft * (s * DG);
       }
       if (!reflect && lh < 0.f) {
